@@ -1,0 +1,395 @@
+//! [`FoosballEnv`]: yellow (the agent) against a black [`Opponent`] on the simulated table.
+//!
+//! One agent step holds the action for `frame_skip` physics steps of `physics_dt`. The
+//! reward is `alpha - |ball_xy - goal| + beta * [scored] - conceded_penalty * [conceded]`
+//! on the ball's position after the step. An episode ends when the ball enters a goal
+//! (terminated), stays slower than `rules.stagnant_speed` for `rules.stagnant_steps`
+//! steps or gains no y for `rules.no_progress_steps` steps (terminated), reaches
+//! `max_episode_steps` (truncated), or the physics fails: a non-finite state or a ball
+//! out of the table (truncated, flagged as [`EndReason::PhysicsFault`]).
+
+use std::collections::VecDeque;
+
+use rand::{Rng, SeedableRng};
+use rand_distr::StandardNormal;
+use serde::{Deserialize, Serialize};
+
+use crate::EnvRng;
+use crate::config::{ConfigError, FoosballConfig};
+use crate::env::{Env, EnvError, Transition, check_action};
+use crate::geometry::{self, NUM_RODS};
+use crate::layout::{
+    self, ACTION_DIM, BALL_POS, BALL_VEL, OBS_DIM, ROD_ANGLE, ROD_ANGLE_VEL, ROD_SLIDE,
+    ROD_SLIDE_VEL, action_slide, action_turn,
+};
+use crate::opponent::{Opponent, opponent_for};
+use crate::table::{PhysicsParams, Table};
+
+/// Why an episode ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EndReason {
+    /// The ball entered black's goal (terminated).
+    Scored,
+    /// The ball entered yellow's own goal (terminated).
+    Conceded,
+    /// The ball stayed slower than `rules.stagnant_speed` too long (terminated).
+    Stagnant,
+    /// The ball gained no y too long (terminated).
+    NoProgress,
+    /// `max_episode_steps` reached (truncated).
+    TimeLimit,
+    /// Non-finite physics state or ball out of the table (truncated).
+    PhysicsFault,
+}
+
+impl EndReason {
+    /// True where the episode reached a terminal state; false for truncations.
+    pub fn is_terminal(self) -> bool {
+        !matches!(self, EndReason::TimeLimit | EndReason::PhysicsFault)
+    }
+}
+
+/// What evaluation needs from each step.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct FoosballInfo {
+    /// Set on the last step of an episode.
+    pub end: Option<EndReason>,
+    /// Distance from the ball (x, y) to `reward.goal`, cm.
+    pub goal_distance: f32,
+    /// Ball speed, cm/s.
+    pub ball_speed: f32,
+    /// Agent steps taken in this episode so far, this one included.
+    pub steps: u32,
+}
+
+impl FoosballInfo {
+    /// The ball entered black's goal on this step.
+    pub fn scored(&self) -> bool {
+        self.end == Some(EndReason::Scored)
+    }
+
+    /// The ball entered yellow's goal on this step.
+    pub fn conceded(&self) -> bool {
+        self.end == Some(EndReason::Conceded)
+    }
+
+    /// The physics failed on this step (the observation is the last good one).
+    pub fn physics_fault(&self) -> bool {
+        self.end == Some(EndReason::PhysicsFault)
+    }
+}
+
+/// One episode's draw of the randomised quantities.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EpisodeDraw {
+    /// Physical settings of the table for this episode.
+    pub physics: PhysicsParams,
+    /// Standard deviation of the noise on observed positions.
+    pub position_noise_std: f32,
+    /// Agent steps by which yellow's actions are delayed.
+    pub action_latency: u32,
+}
+
+/// Bookkeeping of the episode in progress.
+#[derive(Debug, Clone)]
+struct Episode {
+    draw: EpisodeDraw,
+    steps: u32,
+    stagnant_steps: u32,
+    no_progress_steps: u32,
+    prev_ball_y: f32,
+    pending: VecDeque<[f32; ACTION_DIM]>,
+    /// Noise-free observation after the last step.
+    state: [f32; OBS_DIM],
+    over: bool,
+}
+
+/// The foosball table as a reinforcement-learning environment (see the module docs).
+pub struct FoosballEnv {
+    config: FoosballConfig,
+    rng: EnvRng,
+    opponent: Box<dyn Opponent>,
+    table: Option<Table>,
+    episode: Option<Episode>,
+}
+
+fn uniform(rng: &mut EnvRng, [lo, hi]: [f32; 2]) -> f32 {
+    lo + (hi - lo) * rng.random::<f32>()
+}
+
+fn gaussian(rng: &mut EnvRng) -> f32 {
+    rng.sample(StandardNormal)
+}
+
+impl FoosballEnv {
+    /// An environment with the opponent named in `config`.
+    pub fn new(config: FoosballConfig) -> Result<Self, ConfigError> {
+        let opponent = opponent_for(config.opponent);
+        Self::with_opponent(config, opponent)
+    }
+
+    /// An environment with a custom opponent (e.g. a learned policy for self-play); the
+    /// config's `opponent` key is ignored.
+    pub fn with_opponent(
+        config: FoosballConfig,
+        opponent: Box<dyn Opponent>,
+    ) -> Result<Self, ConfigError> {
+        config.validate()?;
+        Ok(Self {
+            config,
+            rng: EnvRng::seed_from_u64(0),
+            opponent,
+            table: None,
+            episode: None,
+        })
+    }
+
+    /// The settings this environment runs with.
+    pub fn config(&self) -> &FoosballConfig {
+        &self.config
+    }
+
+    /// The table of the current episode (None before the first reset).
+    pub fn table(&self) -> Option<&Table> {
+        self.table.as_ref()
+    }
+
+    /// Mutable access to the table, for scripted scenarios and tests (e.g. placing the
+    /// ball). The episode's counters are left as they are.
+    pub fn table_mut(&mut self) -> Option<&mut Table> {
+        self.table.as_mut()
+    }
+
+    /// The randomised quantities of the current episode.
+    pub fn episode_draw(&self) -> Option<&EpisodeDraw> {
+        self.episode.as_ref().map(|e| &e.draw)
+    }
+
+    fn draw_episode(&mut self) -> EpisodeDraw {
+        let c = &self.config;
+        let r = &c.randomization;
+        let rng = &mut self.rng;
+        let ball_mass = c.ball.mass * uniform(rng, r.ball_mass_scale);
+        let ball_friction = c.ball.friction * uniform(rng, r.ball_friction_scale);
+        let ball_restitution =
+            (c.ball.restitution * uniform(rng, r.ball_restitution_scale)).min(1.0);
+        let servo_gain_scale = uniform(rng, r.servo_gain_scale);
+        let position_noise_std = uniform(rng, r.position_noise_std);
+        let [lo, hi] = r.action_latency_steps;
+        let action_latency = rng.random_range(lo..=hi);
+        EpisodeDraw {
+            physics: PhysicsParams {
+                dt: c.physics_dt,
+                ball_mass,
+                ball_friction,
+                ball_restitution,
+                rolling_resistance: c.ball.rolling_resistance,
+                servo_gain_scale,
+            },
+            position_noise_std,
+            action_latency,
+        }
+    }
+
+    /// The noise-free observation of the table's state.
+    fn observe(table: &Table) -> [f32; OBS_DIM] {
+        let mut obs = [0.0; OBS_DIM];
+        obs[BALL_POS].copy_from_slice(&table.ball_position());
+        obs[BALL_VEL].copy_from_slice(&table.ball_velocity());
+        for i in 0..NUM_RODS {
+            let s = table.rod_state(i);
+            obs[ROD_SLIDE.start + i] = s.slide;
+            obs[ROD_SLIDE_VEL.start + i] = s.slide_vel;
+            obs[ROD_ANGLE.start + i] = s.angle;
+            obs[ROD_ANGLE_VEL.start + i] = s.angle_vel;
+        }
+        obs
+    }
+
+    /// Writes `state` plus this episode's position noise into `out`.
+    fn emit(&mut self, state: &[f32; OBS_DIM], out: &mut [f32]) {
+        out.copy_from_slice(state);
+        let std = self
+            .episode
+            .as_ref()
+            .map_or(0.0, |e| e.draw.position_noise_std);
+        if std > 0.0 {
+            for range in [BALL_POS, ROD_SLIDE, ROD_ANGLE] {
+                for v in &mut out[range] {
+                    *v += std * gaussian(&mut self.rng);
+                }
+            }
+        }
+    }
+
+    fn goal_distance(&self, ball: &[f32]) -> f32 {
+        let [gx, gy] = self.config.reward.goal;
+        ((ball[0] - gx).powi(2) + (ball[1] - gy).powi(2)).sqrt()
+    }
+
+    fn set_targets(table: &mut Table, first_rod: usize, action: &[f32; ACTION_DIM]) {
+        for r in 0..4 {
+            let spec = &geometry::RODS[r];
+            table.set_target(
+                first_rod + r,
+                action[action_slide(r)].clamp(-1.0, 1.0) * spec.slide_range,
+                action[action_turn(r)].clamp(-1.0, 1.0) * spec.turn_range,
+            );
+        }
+    }
+}
+
+/// Where the ball is: in a goal, out of the table, or in play.
+fn ball_event(state: &[f32; OBS_DIM]) -> Option<EndReason> {
+    if state.iter().any(|v| !v.is_finite()) {
+        return Some(EndReason::PhysicsFault);
+    }
+    let [x, y, z] = [state[0], state[1], state[2]];
+    let in_mouth = x.abs() <= geometry::GOAL_HALF_WIDTH;
+    if in_mouth && y >= geometry::GOAL_LINE_Y {
+        return Some(EndReason::Scored);
+    }
+    if in_mouth && y <= -geometry::GOAL_LINE_Y {
+        return Some(EndReason::Conceded);
+    }
+    let margin = 1.0;
+    let out = x.abs() > geometry::FIELD_HALF_WIDTH + margin
+        || y.abs() > geometry::GOAL_POCKET_BACK + margin
+        || z < -margin
+        || z > 3.0 * geometry::WALL_HEIGHT;
+    out.then_some(EndReason::PhysicsFault)
+}
+
+impl Env for FoosballEnv {
+    type Info = FoosballInfo;
+
+    fn obs_dim(&self) -> usize {
+        OBS_DIM
+    }
+
+    fn action_dim(&self) -> usize {
+        ACTION_DIM
+    }
+
+    fn reset_into(&mut self, seed: Option<u64>, obs: &mut [f32]) {
+        if let Some(seed) = seed {
+            self.rng = EnvRng::seed_from_u64(seed);
+        }
+        let draw = self.draw_episode();
+        let s = &self.config.start;
+        let limit_x = geometry::FIELD_HALF_WIDTH - geometry::BALL_RADIUS;
+        let limit_y = geometry::FIELD_HALF_LENGTH - geometry::BALL_RADIUS;
+        let x = (s.x_mean + s.x_std * gaussian(&mut self.rng)).clamp(-limit_x, limit_x);
+        let y = (s.y_mean + s.y_std * gaussian(&mut self.rng)).clamp(-limit_y, limit_y);
+        let table = Table::new(&draw.physics, [x, y]);
+        let state = Self::observe(&table);
+        self.table = Some(table);
+        self.opponent.reset();
+        self.episode = Some(Episode {
+            draw,
+            steps: 0,
+            stagnant_steps: 0,
+            no_progress_steps: 0,
+            prev_ball_y: y,
+            pending: VecDeque::new(),
+            state,
+            over: false,
+        });
+        self.emit(&state, obs);
+    }
+
+    fn step_into(
+        &mut self,
+        action: &[f32],
+        obs: &mut [f32],
+    ) -> Result<Transition<FoosballInfo>, EnvError> {
+        check_action(action, ACTION_DIM)?;
+        let (Some(table), Some(ep)) = (self.table.as_mut(), self.episode.as_mut()) else {
+            return Err(EnvError::NeedsReset);
+        };
+        if ep.over {
+            return Err(EnvError::NeedsReset);
+        }
+        let mut yellow = [0.0; ACTION_DIM];
+        yellow.copy_from_slice(action);
+        ep.pending.push_back(yellow);
+        let applied = if ep.pending.len() > ep.draw.action_latency as usize {
+            ep.pending.pop_front().unwrap_or_default()
+        } else {
+            [0.0; ACTION_DIM]
+        };
+        let black_view = layout::mirror_observation(&ep.state);
+        let black = self
+            .opponent
+            .act(&black_view, &mut self.rng)
+            .map(|a| if a.is_finite() { a } else { 0.0 });
+        Self::set_targets(table, 0, &applied);
+        Self::set_targets(table, 4, &black);
+
+        let mut event = None;
+        let mut state = ep.state;
+        for _ in 0..self.config.frame_skip {
+            table.step();
+            state = Self::observe(table);
+            event = ball_event(&state);
+            if event.is_some() {
+                break;
+            }
+        }
+        if event == Some(EndReason::PhysicsFault) && state.iter().any(|v| !v.is_finite()) {
+            state = ep.state; // never hand out a poisoned observation
+        }
+
+        ep.steps += 1;
+        let speed = state[BALL_VEL].iter().map(|v| v * v).sum::<f32>().sqrt();
+        let rules = &self.config.rules;
+        ep.stagnant_steps = if speed < rules.stagnant_speed {
+            ep.stagnant_steps + 1
+        } else {
+            0
+        };
+        let y = state[BALL_POS.start + 1];
+        ep.no_progress_steps = if y > ep.prev_ball_y {
+            0
+        } else {
+            ep.no_progress_steps + 1
+        };
+        ep.prev_ball_y = y;
+        let end = event.or_else(|| {
+            if ep.stagnant_steps >= rules.stagnant_steps {
+                Some(EndReason::Stagnant)
+            } else if ep.no_progress_steps >= rules.no_progress_steps {
+                Some(EndReason::NoProgress)
+            } else if ep.steps >= self.config.max_episode_steps {
+                Some(EndReason::TimeLimit)
+            } else {
+                None
+            }
+        });
+        ep.state = state;
+        ep.over = end.is_some();
+        let steps = ep.steps;
+
+        let goal_distance = self.goal_distance(&state[BALL_POS]);
+        let rw = &self.config.reward;
+        let mut reward = rw.alpha - goal_distance;
+        match end {
+            Some(EndReason::Scored) => reward += rw.beta,
+            Some(EndReason::Conceded) => reward -= rw.conceded_penalty,
+            _ => {}
+        }
+        self.emit(&state, obs);
+        Ok(Transition {
+            reward,
+            terminated: end.is_some_and(EndReason::is_terminal),
+            truncated: end.is_some_and(|e| !e.is_terminal()),
+            info: FoosballInfo {
+                end,
+                goal_distance,
+                ball_speed: speed,
+                steps,
+            },
+        })
+    }
+}

@@ -1,0 +1,165 @@
+//! The ITSF Tornado T-3000 table in numbers (cm, kg, s, rad).
+//!
+//! Every figure here was measured from the paper code's MuJoCo model (see the README's
+//! "Table model" section for how). The world frame: x across the table (along the rods),
+//! y along the table (yellow attacks +y), z up; the playfield surface is z = 0.
+
+/// Gravity along -z in cm/s².
+pub const GRAVITY: f32 = 981.0;
+
+/// Ball radius in cm.
+pub const BALL_RADIUS: f32 = 1.733_55;
+/// Ball mass in kg.
+pub const BALL_MASS: f32 = 0.1;
+
+/// Half width of the playfield between the inner side walls (|x| <= this), cm.
+pub const FIELD_HALF_WIDTH: f32 = 34.0;
+/// Half length of the playfield between the end walls (|y| <= this), cm.
+pub const FIELD_HALF_LENGTH: f32 = 60.12;
+/// Height of the side and end walls above the playfield, cm.
+pub const WALL_HEIGHT: f32 = 11.1;
+/// Half width of each goal mouth (|x| <= this), cm (20.32 cm = 8 in wide).
+pub const GOAL_HALF_WIDTH: f32 = 10.16;
+/// Height of the goal mouth's top above the playfield, cm (the reference's arch top; the
+/// mouth is modelled as a rectangle of this height).
+pub const GOAL_MOUTH_HEIGHT: f32 = 7.8;
+/// |y| of the back of each goal pocket, cm.
+pub const GOAL_POCKET_BACK: f32 = 68.12;
+/// |y| at which a ball counts as in a goal: the paper's goal centre (0, ±64).
+pub const GOAL_LINE_Y: f32 = 64.0;
+
+/// Height of every rod axis above the playfield, cm.
+pub const ROD_HEIGHT: f32 = 7.75;
+/// Radius of the steel rods, cm.
+pub const ROD_RADIUS: f32 = 0.78;
+/// Mass of the rod's bumpers and handle carried with the rod body, kg (2 x 0.05 + 0.01).
+pub const ROD_FITTINGS_MASS: f32 = 0.11;
+
+/// One foosman: a torso block around the rod and a narrower leg-and-foot block below it.
+/// Extents measured from the reference mesh (after its 0.1 scale).
+pub mod foosman {
+    /// Mass of one foosman, kg.
+    pub const MASS: f32 = 0.07;
+    /// Top of the head above the rod axis, cm.
+    pub const HEAD_TOP: f32 = 3.52;
+    /// Boundary between torso and leg below the rod axis, cm.
+    pub const WAIST: f32 = 1.85;
+    /// Bottom of the foot below the rod axis, cm (foot 0.47 above the playfield).
+    pub const FOOT_BOTTOM: f32 = 7.28;
+    /// Torso half extents across (x) and along (y) the table, cm.
+    pub const TORSO_HALF_X: f32 = 1.585;
+    pub const TORSO_HALF_Y: f32 = 1.75;
+    /// Leg-and-foot half extents across (x) and along (y) the table, cm.
+    pub const LEG_HALF_X: f32 = 1.12;
+    pub const LEG_HALF_Y: f32 = 1.2;
+}
+
+/// Which side a rod belongs to. Yellow is the agent and attacks +y; black defends y = +60.12.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Team {
+    Yellow,
+    Black,
+}
+
+impl Team {
+    /// +1 for yellow, -1 for black: the sign that turns a team's own frame into the world's
+    /// (black's table is yellow's turned 180° about z).
+    pub fn sign(self) -> f32 {
+        match self {
+            Team::Yellow => 1.0,
+            Team::Black => -1.0,
+        }
+    }
+}
+
+/// One rod kind (each team has one of each), with its servo.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RodSpec {
+    /// Short name used in logs: `goalie`, `defence`, `midfield`, `attack`.
+    pub name: &'static str,
+    /// y of yellow's rod, cm (black's is at -y).
+    pub yellow_y: f32,
+    /// x offsets of the men from the rod centre at zero slide, cm.
+    pub men_x: &'static [f32],
+    /// Mass of the steel rod, kg (men and fittings come on top).
+    pub rod_mass: f32,
+    /// Slide control range: targets lie in [-slide_range, slide_range] cm.
+    pub slide_range: f32,
+    /// Slide servo stiffness (kg/s², i.e. force per cm) and damping (kg/s).
+    pub slide_kp: f32,
+    pub slide_kv: f32,
+    /// Turn control range: targets lie in [-turn_range, turn_range] rad.
+    pub turn_range: f32,
+    /// Turn servo stiffness (kg cm²/s² per rad) and damping (kg cm²/s per rad/s).
+    pub turn_kp: f32,
+    pub turn_kv: f32,
+}
+
+/// The four rod kinds in the order used everywhere: goalie, defence, midfield, attack.
+pub const RODS: [RodSpec; 4] = [
+    RodSpec {
+        name: "goalie",
+        yellow_y: -52.5,
+        men_x: &[-20.676, 0.0, 20.676],
+        rod_mass: 1.202_68,
+        slide_range: 10.0,
+        slide_kp: 20_000.0,
+        slide_kv: 300.0,
+        turn_range: 2.5,
+        turn_kp: 70_000.0,
+        turn_kv: 1_000.0,
+    },
+    RodSpec {
+        name: "defence",
+        yellow_y: -37.5,
+        men_x: &[-11.938, 11.938],
+        rod_mass: 1.402_07,
+        slide_range: 20.0,
+        slide_kp: 10_000.0,
+        slide_kv: 200.0,
+        turn_range: 2.5,
+        turn_kp: 40_000.0,
+        turn_kv: 500.0,
+    },
+    RodSpec {
+        name: "midfield",
+        yellow_y: -7.5,
+        men_x: &[-23.95, -11.975, 0.0, 11.975, 23.95],
+        rod_mass: 1.1264,
+        slide_range: 7.0,
+        slide_kp: 40_000.0,
+        slide_kv: 500.0,
+        turn_range: 2.5,
+        turn_kp: 150_000.0,
+        turn_kv: 2_000.0,
+    },
+    RodSpec {
+        name: "attack",
+        yellow_y: 22.5,
+        men_x: &[-18.175, 0.0, 18.175],
+        rod_mass: 1.257_06,
+        slide_range: 12.0,
+        slide_kp: 20_000.0,
+        slide_kv: 300.0,
+        turn_range: 2.5,
+        turn_kp: 70_000.0,
+        turn_kv: 1_000.0,
+    },
+];
+
+/// Number of rods on the table (4 per team).
+pub const NUM_RODS: usize = 8;
+
+/// Team and kind of rod `i` in the global rod order: yellow goalie, defence, midfield,
+/// attack, then black in the same order.
+pub fn rod_of(i: usize) -> (Team, &'static RodSpec) {
+    let team = if i < 4 { Team::Yellow } else { Team::Black };
+    (team, &RODS[i % 4])
+}
+
+/// World y of rod `i`, cm.
+pub fn rod_y(i: usize) -> f32 {
+    let (team, spec) = rod_of(i);
+    team.sign() * spec.yellow_y
+}

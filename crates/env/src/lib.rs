@@ -1,0 +1,34 @@
+//! The foosball table and other environments for foosball-rl.
+//!
+//! - [`FoosballEnv`]: the ITSF Tornado T-3000 table in rapier3d (cm, kg, s), yellow (the
+//!   agent) against a black [`Opponent`], Gymnasium-style ([`Env`]).
+//! - [`Pendulum`]: Gymnasium's `Pendulum-v1`, exact, for validating learners.
+//! - [`VecEnv`]: many environments stepped in parallel with rayon, auto-reset,
+//!   reproducible whatever the thread count.
+//! - [`geometry`] and [`layout`]: the table's numbers and the observation/action index
+//!   table; [`seeding`]: how every random stream derives from one run seed.
+//!
+//! Knows nothing of neural networks: observations and actions cross as flat `f32`.
+
+pub mod config;
+pub mod env;
+pub mod foosball;
+pub mod geometry;
+pub mod layout;
+pub mod opponent;
+pub mod pendulum;
+pub mod seeding;
+pub mod servo;
+pub mod table;
+pub mod vec_env;
+
+pub use config::{ConfigError, FoosballConfig, OpponentKind, Randomization};
+pub use env::{Env, EnvError, Transition};
+pub use foosball::{EndReason, FoosballEnv, FoosballInfo};
+pub use opponent::Opponent;
+pub use pendulum::Pendulum;
+pub use vec_env::{VecEnv, VecEnvError, VecStep};
+
+/// The random number generator every environment owns: ChaCha8, whose stream is fixed by
+/// its seed on every platform and in every version of `rand_chacha`.
+pub type EnvRng = rand_chacha::ChaCha8Rng;

@@ -1,0 +1,435 @@
+//! The table as a rapier3d world: playfield, walls, goal pockets, eight servo-driven rods
+//! with their men, and the ball. Units cm, kg, s, rad.
+//!
+//! Each rod is a dynamic rigid body held to the fixed table by a generic joint that leaves
+//! two degrees of freedom free: slide along the rod axis (limited to the servo's range)
+//! and turn about it. Two [`Servo`]s drive those coordinates, applied as a force and a
+//! torque before every physics step. Only the ball touches anything: men and rods collide
+//! with the ball alone, and the table collides with the ball alone.
+
+use core::f32::consts::PI;
+
+use rapier3d::prelude::*;
+
+use crate::geometry::{self, NUM_RODS, RodSpec, Team, foosman};
+use crate::servo::Servo;
+
+const TABLE_GROUP: Group = Group::GROUP_1;
+const BALL_GROUP: Group = Group::GROUP_2;
+const ROD_GROUP: Group = Group::GROUP_3;
+
+/// Ratio of the force on a rolling solid sphere's centre to the deceleration it yields:
+/// `m + I / r² = 7/5 m`.
+const ROLLING_INERTIA_FACTOR: f32 = 1.4;
+
+/// The physical settings a table is built with (nominal values, or one episode's
+/// randomised draw).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PhysicsParams {
+    /// Physics step, s.
+    pub dt: f32,
+    /// Ball mass, kg.
+    pub ball_mass: f32,
+    /// Friction coefficient of every ball contact.
+    pub ball_friction: f32,
+    /// Restitution of every ball contact.
+    pub ball_restitution: f32,
+    /// Deceleration of a freely rolling ball, as a fraction of g.
+    pub rolling_resistance: f32,
+    /// Multiplier on every servo's kp and kv.
+    pub servo_gain_scale: f32,
+}
+
+/// One rod's joint coordinates.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RodState {
+    /// Slide along the rod's axis from neutral, cm.
+    pub slide: f32,
+    /// Slide velocity, cm/s.
+    pub slide_vel: f32,
+    /// Turn angle from hanging straight down, rad, unwrapped (may leave (-π, π]).
+    pub angle: f32,
+    /// Angular velocity, rad/s.
+    pub angle_vel: f32,
+}
+
+/// A rod in the world.
+#[derive(Debug, Clone)]
+struct Rod {
+    body: RigidBodyHandle,
+    /// The rod's neutral pose in the world; its local x axis is the rod axis.
+    frame: Pose,
+    /// The rod axis in world coordinates (±x).
+    axis: Vector,
+    /// Generalised inertia of the slide (kg) and of the turn about the axis (kg cm²).
+    slide_mass: f32,
+    turn_inertia: f32,
+    slide_servo: Servo,
+    turn_servo: Servo,
+    /// Unwrapped turn angle after the last step, rad.
+    angle: f32,
+}
+
+/// The simulated table.
+pub struct Table {
+    world: PhysicsWorld,
+    ball: RigidBodyHandle,
+    rods: Vec<Rod>,
+    /// Servo targets per rod: `[slide cm, angle rad]`.
+    targets: [[f32; 2]; NUM_RODS],
+    rolling_force: f32,
+}
+
+fn groups(member: Group, filter: Group) -> InteractionGroups {
+    InteractionGroups::new(member, filter, InteractionTestMode::And)
+}
+
+/// A box spanning `[lo, hi]` on each axis, as a table collider.
+fn block(lo: [f32; 3], hi: [f32; 3]) -> Collider {
+    let half = |i: usize| 0.5 * (hi[i] - lo[i]);
+    let mid = |i: usize| 0.5 * (hi[i] + lo[i]);
+    ColliderBuilder::cuboid(half(0), half(1), half(2))
+        .translation(Vector::new(mid(0), mid(1), mid(2)))
+        .collision_groups(groups(TABLE_GROUP, BALL_GROUP))
+        .friction(0.0)
+        .restitution(0.0)
+        .build()
+}
+
+/// The fixed colliders: playfield, side walls, end walls with goal mouths, goal pockets.
+fn table_colliders() -> Vec<Collider> {
+    use geometry::{
+        FIELD_HALF_LENGTH as L, FIELD_HALF_WIDTH as W, GOAL_HALF_WIDTH as G,
+        GOAL_MOUTH_HEIGHT as M, GOAL_POCKET_BACK as B, WALL_HEIGHT as H,
+    };
+    const T: f32 = 4.0; // wall thickness, outside the playing volume
+    let mut out = vec![
+        // Playfield and the floors of both goal pockets.
+        block([-W - T, -B - T, -T], [W + T, B + T, 0.0]),
+        // Side walls.
+        block([-W - T, -L - T, 0.0], [-W, L + T, H]),
+        block([W, -L - T, 0.0], [W + T, L + T, H]),
+    ];
+    for s in [-1.0_f32, 1.0] {
+        // y range of something lying beyond |y| = from .. to on this end.
+        let span = |from: f32, to: f32| if s > 0.0 { (from, to) } else { (-to, -from) };
+        let (y0, y1) = span(L, L + T);
+        // End wall either side of the mouth, and the crossbar above it.
+        out.push(block([-W, y0, 0.0], [-G, y1, H]));
+        out.push(block([G, y0, 0.0], [W, y1, H]));
+        out.push(block([-G, y0, M], [G, y1, H]));
+        // Goal pocket: side walls, back wall, roof.
+        let (p0, p1) = span(L, B);
+        out.push(block([-G - T, p0, 0.0], [-G, p1, H]));
+        out.push(block([G, p0, 0.0], [G + T, p1, H]));
+        let (b0, b1) = span(B, B + T);
+        out.push(block([-G - T, b0, 0.0], [G + T, b1, H]));
+        out.push(block([-G, p0, M], [G, p1, M + T]));
+    }
+    out
+}
+
+/// The colliders of one rod in its own frame (x along the rod, z up at neutral): the steel
+/// rod and each man's torso and leg blocks.
+fn rod_colliders(spec: &RodSpec) -> Vec<Collider> {
+    let rod_groups = groups(ROD_GROUP, BALL_GROUP);
+    // The rod spans the playfield at any slide.
+    let half_len = geometry::FIELD_HALF_WIDTH + geometry::RODS[1].slide_range;
+    let mut out = vec![
+        ColliderBuilder::cylinder(half_len, geometry::ROD_RADIUS)
+            .rotation(Vector::new(0.0, 0.0, PI / 2.0))
+            .mass(spec.rod_mass + geometry::ROD_FITTINGS_MASS)
+            .collision_groups(rod_groups)
+            .friction(0.0)
+            .restitution(0.0)
+            .build(),
+    ];
+    let torso_half_z = 0.5 * (foosman::HEAD_TOP + foosman::WAIST);
+    let leg_half_z = 0.5 * (foosman::FOOT_BOTTOM - foosman::WAIST);
+    let torso_vol = foosman::TORSO_HALF_X * foosman::TORSO_HALF_Y * torso_half_z;
+    let leg_vol = foosman::LEG_HALF_X * foosman::LEG_HALF_Y * leg_half_z;
+    let torso_mass = foosman::MASS * torso_vol / (torso_vol + leg_vol);
+    for &x in spec.men_x {
+        let torso_z = 0.5 * (foosman::HEAD_TOP - foosman::WAIST);
+        let leg_z = -0.5 * (foosman::WAIST + foosman::FOOT_BOTTOM);
+        for (hx, hy, hz, z, m) in [
+            (
+                foosman::TORSO_HALF_X,
+                foosman::TORSO_HALF_Y,
+                torso_half_z,
+                torso_z,
+                torso_mass,
+            ),
+            (
+                foosman::LEG_HALF_X,
+                foosman::LEG_HALF_Y,
+                leg_half_z,
+                leg_z,
+                foosman::MASS - torso_mass,
+            ),
+        ] {
+            out.push(
+                ColliderBuilder::cuboid(hx, hy, hz)
+                    .translation(Vector::new(x, 0.0, z))
+                    .mass(m)
+                    .collision_groups(rod_groups)
+                    .friction(0.0)
+                    .restitution(0.0)
+                    .build(),
+            );
+        }
+    }
+    out
+}
+
+/// `a` wrapped into (-π, π].
+fn wrap_angle(a: f32) -> f32 {
+    if a > PI {
+        a - 2.0 * PI
+    } else if a <= -PI {
+        a + 2.0 * PI
+    } else {
+        a
+    }
+}
+
+/// Turn angle about x of a rotation that is (up to rounding) about x alone, in (-π, π].
+fn angle_about_x(q: Rotation) -> f32 {
+    wrap_angle(2.0 * q.x.atan2(q.w))
+}
+
+impl Table {
+    /// Builds the table with every rod at neutral and the ball at rest at `ball_xy`
+    /// (cm) on the playfield.
+    pub fn new(params: &PhysicsParams, ball_xy: [f32; 2]) -> Self {
+        let mut world = PhysicsWorld::new();
+        world.gravity = Vector::new(0.0, 0.0, -geometry::GRAVITY);
+        world.integration_parameters.dt = params.dt;
+        world.integration_parameters.length_unit = 100.0;
+
+        let ground = world.insert_body(RigidBodyBuilder::fixed());
+        for c in table_colliders() {
+            world
+                .colliders
+                .insert_with_parent(c, ground, &mut world.bodies);
+        }
+
+        let rods = (0..NUM_RODS)
+            .map(|i| {
+                let (team, spec) = geometry::rod_of(i);
+                let rotation = match team {
+                    Team::Yellow => Rotation::IDENTITY,
+                    Team::Black => Rotation::from_rotation_z(PI),
+                };
+                let frame = Pose::from_parts(
+                    Vector::new(0.0, geometry::rod_y(i), geometry::ROD_HEIGHT),
+                    rotation,
+                );
+                let body = world.insert_body(
+                    RigidBodyBuilder::dynamic()
+                        .pose(frame)
+                        .ccd_enabled(true)
+                        .can_sleep(false),
+                );
+                for c in rod_colliders(spec) {
+                    world
+                        .colliders
+                        .insert_with_parent(c, body, &mut world.bodies);
+                }
+                let joint = GenericJointBuilder::new(
+                    JointAxesMask::LIN_Y
+                        | JointAxesMask::LIN_Z
+                        | JointAxesMask::ANG_Y
+                        | JointAxesMask::ANG_Z,
+                )
+                .local_frame1(frame)
+                .local_frame2(Pose::IDENTITY)
+                .limits(JointAxis::LinX, [-spec.slide_range, spec.slide_range])
+                .contacts_enabled(false)
+                .build();
+                world.insert_impulse_joint(ground, body, joint);
+
+                let rb = &world.bodies[body];
+                let mprops = &rb.mass_properties().local_mprops;
+                let com = mprops.local_com;
+                let inertia = mprops.reconstruct_inertia_matrix();
+                let turn_inertia =
+                    inertia.x_axis.x + mprops.mass() * (com.y * com.y + com.z * com.z);
+                let g = params.servo_gain_scale;
+                Rod {
+                    body,
+                    frame,
+                    axis: rotation * Vector::X,
+                    slide_mass: mprops.mass(),
+                    turn_inertia,
+                    slide_servo: Servo {
+                        kp: g * spec.slide_kp,
+                        kv: g * spec.slide_kv,
+                    },
+                    turn_servo: Servo {
+                        kp: g * spec.turn_kp,
+                        kv: g * spec.turn_kv,
+                    },
+                    angle: 0.0,
+                }
+            })
+            .collect();
+
+        let ball = world.insert_body(
+            RigidBodyBuilder::dynamic()
+                .translation(Vector::new(ball_xy[0], ball_xy[1], geometry::BALL_RADIUS))
+                .ccd_enabled(true)
+                .can_sleep(false),
+        );
+        let ball_collider = ColliderBuilder::ball(geometry::BALL_RADIUS)
+            .mass(params.ball_mass)
+            .friction(params.ball_friction)
+            .friction_combine_rule(CoefficientCombineRule::Max)
+            .restitution(params.ball_restitution)
+            .restitution_combine_rule(CoefficientCombineRule::Max)
+            .collision_groups(groups(BALL_GROUP, TABLE_GROUP | ROD_GROUP))
+            .build();
+        world
+            .colliders
+            .insert_with_parent(ball_collider, ball, &mut world.bodies);
+
+        Self {
+            world,
+            ball,
+            rods,
+            targets: [[0.0; 2]; NUM_RODS],
+            rolling_force: ROLLING_INERTIA_FACTOR
+                * params.rolling_resistance
+                * params.ball_mass
+                * geometry::GRAVITY,
+        }
+    }
+
+    /// Sets rod `rod`'s servo targets: slide in cm and angle in rad (clamped to the rod's
+    /// control ranges).
+    pub fn set_target(&mut self, rod: usize, slide: f32, angle: f32) {
+        let (_, spec) = geometry::rod_of(rod);
+        self.targets[rod] = [
+            slide.clamp(-spec.slide_range, spec.slide_range),
+            angle.clamp(-spec.turn_range, spec.turn_range),
+        ];
+    }
+
+    /// Advances the world by one physics step.
+    pub fn step(&mut self) {
+        let dt = self.world.integration_parameters.dt;
+        for (i, rod) in self.rods.iter().enumerate() {
+            let s = self.rod_state(i);
+            let [slide_target, angle_target] = self.targets[i];
+            let f = rod
+                .slide_servo
+                .force(slide_target, s.slide, s.slide_vel, rod.slide_mass, dt);
+            let t = rod
+                .turn_servo
+                .force(angle_target, s.angle, s.angle_vel, rod.turn_inertia, dt);
+            let body = &mut self.world.bodies[rod.body];
+            body.reset_forces(false);
+            body.reset_torques(false);
+            body.add_force(rod.axis * f, false);
+            body.add_torque(rod.axis * t, false);
+        }
+        self.apply_rolling_resistance(dt);
+        self.world.step();
+        for i in 0..self.rods.len() {
+            let raw = self.raw_angle(i);
+            let rod = &mut self.rods[i];
+            rod.angle += wrap_angle(raw - rod.angle);
+        }
+    }
+
+    /// A rolling ball slows at `rolling_resistance * g`: a force at its centre, opposing its
+    /// horizontal velocity, while it touches the playfield (never reversing it).
+    fn apply_rolling_resistance(&mut self, dt: f32) {
+        let ball = &mut self.world.bodies[self.ball];
+        ball.reset_forces(false);
+        let on_floor = ball.translation().z < geometry::BALL_RADIUS + 0.05;
+        let v = ball.linvel();
+        let speed = (v.x * v.x + v.y * v.y).sqrt();
+        if on_floor && speed > 0.0 {
+            let stop = ROLLING_INERTIA_FACTOR * ball.mass() * speed / dt;
+            let f = self.rolling_force.min(stop);
+            ball.add_force(Vector::new(-v.x / speed * f, -v.y / speed * f, 0.0), false);
+        }
+    }
+
+    fn raw_angle(&self, rod: usize) -> f32 {
+        let r = &self.rods[rod];
+        let rel = r.frame.inv_mul(self.world.bodies[r.body].position());
+        angle_about_x(rel.rotation)
+    }
+
+    /// Joint coordinates of rod `rod` (global rod order, see [`crate::layout`]).
+    pub fn rod_state(&self, rod: usize) -> RodState {
+        let r = &self.rods[rod];
+        let body = &self.world.bodies[r.body];
+        let rel = r.frame.inv_mul(body.position());
+        RodState {
+            slide: rel.translation.x,
+            slide_vel: body.linvel().dot(r.axis),
+            angle: r.angle,
+            angle_vel: body.angvel().dot(r.axis),
+        }
+    }
+
+    /// Ball centre, cm.
+    pub fn ball_position(&self) -> [f32; 3] {
+        self.world.bodies[self.ball].translation().to_array()
+    }
+
+    /// Ball velocity, cm/s.
+    pub fn ball_velocity(&self) -> [f32; 3] {
+        self.world.bodies[self.ball].linvel().to_array()
+    }
+
+    /// Places the ball at `position` (cm) moving at `velocity` (cm/s), without spin.
+    pub fn set_ball(&mut self, position: [f32; 3], velocity: [f32; 3]) {
+        let ball = &mut self.world.bodies[self.ball];
+        ball.set_translation(Vector::from_array(position), true);
+        ball.set_linvel(Vector::from_array(velocity), true);
+        ball.set_angvel(Vector::ZERO, true);
+    }
+
+    /// Physics step length, s.
+    pub fn dt(&self) -> f32 {
+        self.world.integration_parameters.dt
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn angle_about_x_round_trips() {
+        for a in [-3.0_f32, -1.0, 0.0, 0.5, 2.9] {
+            assert!((angle_about_x(Rotation::from_rotation_x(a)) - a).abs() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn rod_inertia_includes_the_men() {
+        let params = PhysicsParams {
+            dt: 0.002,
+            ball_mass: 0.1,
+            ball_friction: 0.3,
+            ball_restitution: 0.6,
+            rolling_resistance: 0.015,
+            servo_gain_scale: 1.0,
+        };
+        let t = Table::new(&params, [0.0, 0.0]);
+        let goalie = &t.rods[0];
+        // rod + fittings + 3 men
+        assert!((goalie.slide_mass - (1.20268 + 0.11 + 0.21)).abs() < 1e-4);
+        // three men of ~10.8 cm hanging ~1.9 cm below the axis: ~0.9 kg cm² each
+        assert!(
+            goalie.turn_inertia > 2.0 && goalie.turn_inertia < 4.0,
+            "{}",
+            goalie.turn_inertia
+        );
+    }
+}

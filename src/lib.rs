@@ -1,0 +1,1 @@
+pub use foosball_env as env;
