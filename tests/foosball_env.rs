@@ -1,0 +1,231 @@
+//! The foosball environment's contract: observation layout, reward, episode rules, goal
+//! bookkeeping, refused actions and determinism.
+
+use foosball_rl::env::geometry::{BALL_RADIUS, GOAL_LINE_Y};
+use foosball_rl::env::layout::{ACTION_DIM, BALL_POS, OBS_DIM, ROD_ANGLE, ROD_SLIDE};
+use foosball_rl::env::{
+    EndReason, Env, EnvError, EnvRng, FoosballConfig, FoosballEnv, FoosballInfo, Transition,
+};
+use rand::{Rng, SeedableRng};
+
+const NEUTRAL: [f32; ACTION_DIM] = [0.0; ACTION_DIM];
+
+fn env_with(config: FoosballConfig) -> FoosballEnv {
+    let mut env = FoosballEnv::new(config).unwrap();
+    env.reset(Some(1));
+    env
+}
+
+/// A fresh episode with the ball placed at `xy` moving at `v` (cm/s).
+fn placed(config: FoosballConfig, xy: [f32; 2], v: [f32; 2]) -> FoosballEnv {
+    let mut env = env_with(config);
+    env.table_mut()
+        .unwrap()
+        .set_ball([xy[0], xy[1], BALL_RADIUS], [v[0], v[1], 0.0]);
+    env
+}
+
+/// Steps with neutral actions until the episode ends (at most `limit` steps).
+fn play_out(env: &mut FoosballEnv, limit: usize) -> Vec<Transition<FoosballInfo>> {
+    let mut out = Vec::new();
+    for _ in 0..limit {
+        let (_, t) = env.step(&NEUTRAL).unwrap();
+        let done = t.done();
+        out.push(t);
+        if done {
+            break;
+        }
+    }
+    out
+}
+
+#[test]
+fn the_first_observation_follows_the_layout() {
+    let mut env = FoosballEnv::new(FoosballConfig::default()).unwrap();
+    let obs = env.reset(Some(3));
+    assert_eq!(obs.len(), OBS_DIM);
+    assert!((obs[BALL_POS.start + 2] - BALL_RADIUS).abs() < 1e-5);
+    // Ball near (-0.5, -0.1) with std 0.5.
+    assert!(
+        (obs[0] + 0.5).abs() < 3.0 && (obs[1] + 0.1).abs() < 3.0,
+        "{:?}",
+        &obs[..3]
+    );
+    // Everything but the ball position is zero at the start: rods at neutral, at rest.
+    assert!(obs[3..].iter().all(|&v| v == 0.0), "{:?}", &obs[3..]);
+}
+
+#[test]
+fn rod_commands_show_up_in_the_observation() {
+    let mut env = env_with(FoosballConfig::default());
+    // Yellow attack: slide +0.5 of 12 cm, turn -0.4 of 2.5 rad.
+    let mut a = NEUTRAL;
+    a[6] = 0.5;
+    a[7] = -0.4;
+    let mut obs = Vec::new();
+    for _ in 0..8 {
+        obs = env.step(&a).unwrap().0;
+    }
+    assert!(
+        (obs[ROD_SLIDE.start + 3] - 6.0).abs() < 0.12,
+        "{}",
+        obs[ROD_SLIDE.start + 3]
+    );
+    assert!(
+        (obs[ROD_ANGLE.start + 3] + 1.0).abs() < 0.02,
+        "{}",
+        obs[ROD_ANGLE.start + 3]
+    );
+    // Black's static rods stay at neutral.
+    assert!(
+        obs[ROD_SLIDE.start + 4..ROD_SLIDE.end]
+            .iter()
+            .all(|v| v.abs() < 1e-3)
+    );
+}
+
+#[test]
+fn reward_is_alpha_minus_the_distance_to_the_goal() {
+    for (xy, expected) in [
+        ([0.0, 0.0], 300.0 - 64.0),
+        ([6.0, 56.0], 300.0 - 10.0),
+        ([-30.0, -30.0], 300.0 - (900.0_f32 + 94.0 * 94.0).sqrt()),
+    ] {
+        let mut env = placed(FoosballConfig::default(), xy, [0.0, 0.0]);
+        let (_, t) = env.step(&NEUTRAL).unwrap();
+        assert!(
+            (t.reward - expected).abs() < 1e-2,
+            "at {xy:?}: {} vs {expected}",
+            t.reward
+        );
+        assert!((t.info.goal_distance - (300.0 - expected)).abs() < 1e-2);
+    }
+}
+
+#[test]
+fn a_resting_ball_ends_the_episode_as_stagnant_after_10_steps() {
+    let mut env = env_with(FoosballConfig::default());
+    let ts = play_out(&mut env, 100);
+    assert_eq!(ts.len(), 10);
+    let last = ts.last().unwrap();
+    assert_eq!(last.info.end, Some(EndReason::Stagnant));
+    assert!(last.terminated && !last.truncated);
+    assert!(ts[..9].iter().all(|t| !t.done()));
+}
+
+#[test]
+fn a_ball_rolling_backwards_ends_the_episode_after_15_steps() {
+    // Rolls towards yellow's goal at 40 cm/s through the gap at x = -30.
+    let mut env = placed(FoosballConfig::default(), [-30.0, 0.0], [0.0, -40.0]);
+    let ts = play_out(&mut env, 100);
+    assert_eq!(ts.len(), 15);
+    assert_eq!(ts.last().unwrap().info.end, Some(EndReason::NoProgress));
+    assert!(ts.last().unwrap().terminated);
+}
+
+#[test]
+fn the_time_limit_truncates() {
+    let config = FoosballConfig {
+        max_episode_steps: 5,
+        ..FoosballConfig::default()
+    };
+    let mut env = placed(config, [-30.0, -30.0], [0.0, 60.0]);
+    let ts = play_out(&mut env, 100);
+    assert_eq!(ts.len(), 5);
+    let last = ts.last().unwrap();
+    assert_eq!(last.info.end, Some(EndReason::TimeLimit));
+    assert!(last.truncated && !last.terminated);
+    assert_eq!(env.step(&NEUTRAL).unwrap_err(), EnvError::NeedsReset);
+}
+
+#[test]
+fn a_goal_terminates_with_the_bonus() {
+    let mut env = placed(FoosballConfig::default(), [5.0, 42.0], [0.0, 300.0]);
+    let ts = play_out(&mut env, 100);
+    let last = ts.last().unwrap();
+    assert!(last.info.scored() && last.terminated, "{:?}", last.info);
+    // The step's reward is alpha - distance + beta, the ball within a few cm of (0, 64).
+    assert!(last.reward > 1000.0 + 300.0 - 8.0, "reward {}", last.reward);
+    assert!(ts[..ts.len() - 1].iter().all(|t| t.reward < 300.0));
+}
+
+#[test]
+fn an_own_goal_is_conceded_with_the_penalty() {
+    let mut config = FoosballConfig::default();
+    config.reward.conceded_penalty = 500.0;
+    config.rules.no_progress_steps = 1000;
+    let mut env = placed(config, [5.0, -42.0], [0.0, -300.0]);
+    let ts = play_out(&mut env, 100);
+    let last = ts.last().unwrap();
+    assert!(last.info.conceded() && last.terminated, "{:?}", last.info);
+    let distance = last.info.goal_distance;
+    assert!(distance > 2.0 * GOAL_LINE_Y - 8.0);
+    assert!((last.reward - (300.0 - distance - 500.0)).abs() < 1e-2);
+}
+
+#[test]
+fn a_non_finite_action_is_refused_and_changes_nothing() {
+    let mut a = env_with(FoosballConfig::default());
+    let mut b = env_with(FoosballConfig::default());
+    let mut bad = [0.3; ACTION_DIM];
+    bad[5] = f32::NAN;
+    assert!(
+        matches!(a.step(&bad), Err(EnvError::NonFiniteAction { index: 5, value }) if value.is_nan())
+    );
+    assert!(matches!(
+        a.step(&[f32::INFINITY; ACTION_DIM]),
+        Err(EnvError::NonFiniteAction { index: 0, .. })
+    ));
+    assert!(matches!(
+        a.step(&[0.0; 3]),
+        Err(EnvError::ActionDim {
+            expected: 8,
+            got: 3
+        })
+    ));
+    for _ in 0..5 {
+        assert_eq!(
+            a.step(&[0.3; ACTION_DIM]).unwrap(),
+            b.step(&[0.3; ACTION_DIM]).unwrap()
+        );
+    }
+}
+
+/// Plays `steps` agent steps of seeded random actions, resetting whenever an episode ends;
+/// returns every observation and reward in order.
+pub fn rollout(config: &FoosballConfig, seed: u64, steps: usize) -> Vec<f32> {
+    let mut env = FoosballEnv::new(config.clone()).unwrap();
+    let mut rng = EnvRng::seed_from_u64(seed ^ 0xACE);
+    let mut trace = env.reset(Some(seed));
+    for _ in 0..steps {
+        let a: Vec<f32> = (0..ACTION_DIM)
+            .map(|_| rng.random_range(-1.0..=1.0))
+            .collect();
+        let (obs, t) = env.step(&a).unwrap();
+        trace.extend_from_slice(&obs);
+        trace.push(t.reward);
+        if t.done() {
+            trace.extend(env.reset(None));
+        }
+    }
+    trace
+}
+
+#[test]
+fn same_seed_and_actions_give_identical_trajectories() {
+    let mut config = FoosballConfig::default();
+    config.opponent = foosball_rl::env::OpponentKind::Random;
+    let a = rollout(&config, 42, 5000);
+    let b = rollout(&config, 42, 5000);
+    assert!(
+        a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()),
+        "trajectories differ"
+    );
+    assert_eq!(a.len(), b.len());
+    let c = rollout(&config, 43, 200);
+    assert_ne!(
+        a[..c.len()],
+        c[..],
+        "another seed should give another trajectory"
+    );
+}
