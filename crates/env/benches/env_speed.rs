@@ -1,0 +1,102 @@
+//! Environment speed: `cargo bench -p foosball-env --bench env_speed`.
+//!
+//! Prints physics steps/s of the bare table, single-env agent steps/s at the default
+//! frame_skip (random actions, auto-reset, resets included), and VecEnv agent steps/s on
+//! 1 and 2 threads. Wall-clock figures: run on an idle machine.
+
+use std::hint::black_box;
+use std::time::{Duration, Instant};
+
+use foosball_env::layout::ACTION_DIM;
+use foosball_env::table::{PhysicsParams, Table};
+use foosball_env::{EndReason, Env, EnvRng, FoosballConfig, FoosballEnv, VecEnv};
+use rand::{Rng, SeedableRng};
+
+const BUDGET: Duration = Duration::from_secs(3);
+
+/// Runs `f` repeatedly for about BUDGET; returns calls per second.
+fn rate(mut f: impl FnMut()) -> f64 {
+    for _ in 0..100 {
+        f(); // warm-up
+    }
+    let start = Instant::now();
+    let mut n = 0u64;
+    while start.elapsed() < BUDGET {
+        for _ in 0..100 {
+            f();
+        }
+        n += 100;
+    }
+    n as f64 / start.elapsed().as_secs_f64()
+}
+
+fn random_actions(rng: &mut EnvRng, n: usize) -> Vec<f32> {
+    (0..n * ACTION_DIM).map(|_| rng.random_range(-1.0..=1.0)).collect()
+}
+
+fn main() {
+    let config = FoosballConfig::default();
+    let params = PhysicsParams {
+        dt: config.physics_dt,
+        ball_mass: config.ball.mass,
+        ball_friction: config.ball.friction,
+        ball_restitution: config.ball.restitution,
+        rolling_resistance: config.ball.rolling_resistance,
+        servo_gain_scale: 1.0,
+    };
+
+    // Bare physics: the ball rolling about, every servo holding a target.
+    let mut table = Table::new(&params, [-0.5, -0.1]);
+    table.set_ball([-30.0, -40.0, 1.73355], [0.0, 150.0, 0.0]);
+    for i in 0..8 {
+        table.set_target(i, 3.0, 0.5);
+    }
+    let physics = rate(|| table.step());
+    println!("physics steps/s (one table, 1 thread):            {physics:>10.0}");
+
+    let build = rate(|| {
+        black_box(Table::new(&params, [0.0, 0.0]));
+    });
+    println!("table builds/s (one reset's world construction):  {build:>10.0}");
+
+    for frame_skip in [1, 2, config.frame_skip, 10] {
+        let c = FoosballConfig { frame_skip, ..config.clone() };
+        let mut env = FoosballEnv::new(c).unwrap();
+        env.reset(Some(0));
+        let mut rng = EnvRng::seed_from_u64(1);
+        let (mut episodes, mut steps, mut stagnant) = (0u64, 0u64, 0u64);
+        let per_s = rate(|| {
+            let a = random_actions(&mut rng, 1);
+            let (_, t) = env.step(&a).unwrap();
+            steps += 1;
+            if t.done() {
+                env.reset(None);
+                episodes += 1;
+                stagnant += u64::from(t.info.end == Some(EndReason::Stagnant));
+            }
+        });
+        println!(
+            "env steps/s, frame_skip {frame_skip} (random actions, resets incl.): {per_s:>10.0}  ({:.0} physics steps/s, {:.1} steps/episode, {:.0}% of episodes end stagnant)",
+            per_s * frame_skip as f64,
+            steps as f64 / episodes.max(1) as f64,
+            100.0 * stagnant as f64 / episodes.max(1) as f64
+        );
+    }
+
+    let n = 16;
+    let mut results = Vec::new();
+    for threads in [1, 2] {
+        let envs = (0..n).map(|_| FoosballEnv::new(config.clone()).unwrap()).collect();
+        let mut venv = VecEnv::new(envs, threads).unwrap();
+        venv.reset(0);
+        let mut rng = EnvRng::seed_from_u64(2);
+        let batches = rate(|| {
+            let a = random_actions(&mut rng, n);
+            venv.step(&a).unwrap();
+        });
+        let per_s = batches * n as f64;
+        results.push(per_s);
+        println!("VecEnv ({n} envs) env steps/s, {threads} thread(s):       {per_s:>10.0}");
+    }
+    println!("VecEnv speed-up 2 vs 1 threads:                   {:>10.2}x", results[1] / results[0]);
+}
