@@ -213,8 +213,10 @@ pub fn rollout(config: &FoosballConfig, seed: u64, steps: usize) -> Vec<f32> {
 
 #[test]
 fn same_seed_and_actions_give_identical_trajectories() {
-    let mut config = FoosballConfig::default();
-    config.opponent = foosball_rl::env::OpponentKind::Random;
+    let config = FoosballConfig {
+        opponent: foosball_rl::env::OpponentKind::Random,
+        ..FoosballConfig::default()
+    };
     let a = rollout(&config, 42, 5000);
     let b = rollout(&config, 42, 5000);
     assert!(

@@ -31,7 +31,9 @@ fn rate(mut f: impl FnMut()) -> f64 {
 }
 
 fn random_actions(rng: &mut EnvRng, n: usize) -> Vec<f32> {
-    (0..n * ACTION_DIM).map(|_| rng.random_range(-1.0..=1.0)).collect()
+    (0..n * ACTION_DIM)
+        .map(|_| rng.random_range(-1.0..=1.0))
+        .collect()
 }
 
 fn main() {
@@ -60,7 +62,10 @@ fn main() {
     println!("table builds/s (one reset's world construction):  {build:>10.0}");
 
     for frame_skip in [1, 2, config.frame_skip, 10] {
-        let c = FoosballConfig { frame_skip, ..config.clone() };
+        let c = FoosballConfig {
+            frame_skip,
+            ..config.clone()
+        };
         let mut env = FoosballEnv::new(c).unwrap();
         env.reset(Some(0));
         let mut rng = EnvRng::seed_from_u64(1);
@@ -86,7 +91,9 @@ fn main() {
     let n = 16;
     let mut results = Vec::new();
     for threads in [1, 2] {
-        let envs = (0..n).map(|_| FoosballEnv::new(config.clone()).unwrap()).collect();
+        let envs = (0..n)
+            .map(|_| FoosballEnv::new(config.clone()).unwrap())
+            .collect();
         let mut venv = VecEnv::new(envs, threads).unwrap();
         venv.reset(0);
         let mut rng = EnvRng::seed_from_u64(2);
@@ -98,5 +105,8 @@ fn main() {
         results.push(per_s);
         println!("VecEnv ({n} envs) env steps/s, {threads} thread(s):       {per_s:>10.0}");
     }
-    println!("VecEnv speed-up 2 vs 1 threads:                   {:>10.2}x", results[1] / results[0]);
+    println!(
+        "VecEnv speed-up 2 vs 1 threads:                   {:>10.2}x",
+        results[1] / results[0]
+    );
 }

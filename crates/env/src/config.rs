@@ -339,8 +339,10 @@ mod tests {
 
     #[test]
     fn errors_name_the_key() {
-        let mut c = FoosballConfig::default();
-        c.physics_dt = -1.0;
+        let c = FoosballConfig {
+            physics_dt: -1.0,
+            ..FoosballConfig::default()
+        };
         assert_eq!(c.validate().unwrap_err().key, "physics_dt");
         let mut c = FoosballConfig::default();
         c.randomization.ball_mass_scale = [1.2, 0.8];

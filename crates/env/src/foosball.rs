@@ -356,17 +356,16 @@ impl Env for FoosballEnv {
             ep.no_progress_steps + 1
         };
         ep.prev_ball_y = y;
-        let end = event.or_else(|| {
-            if ep.stagnant_steps >= rules.stagnant_steps {
-                Some(EndReason::Stagnant)
-            } else if ep.no_progress_steps >= rules.no_progress_steps {
-                Some(EndReason::NoProgress)
-            } else if ep.steps >= self.config.max_episode_steps {
-                Some(EndReason::TimeLimit)
-            } else {
-                None
-            }
-        });
+        let rule_end = if ep.stagnant_steps >= rules.stagnant_steps {
+            Some(EndReason::Stagnant)
+        } else if ep.no_progress_steps >= rules.no_progress_steps {
+            Some(EndReason::NoProgress)
+        } else if ep.steps >= self.config.max_episode_steps {
+            Some(EndReason::TimeLimit)
+        } else {
+            None
+        };
+        let end = event.or(rule_end);
         ep.state = state;
         ep.over = end.is_some();
         let steps = ep.steps;
