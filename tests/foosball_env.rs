@@ -4,7 +4,8 @@
 use foosball_rl::env::geometry::{BALL_RADIUS, GOAL_LINE_Y};
 use foosball_rl::env::layout::{ACTION_DIM, BALL_POS, OBS_DIM, ROD_ANGLE, ROD_SLIDE};
 use foosball_rl::env::{
-    EndReason, Env, EnvError, EnvRng, FoosballConfig, FoosballEnv, FoosballInfo, Transition,
+    EndReason, Env, EnvError, EnvRng, FoosballConfig, FoosballEnv, FoosballInfo, OpponentKind,
+    Transition,
 };
 use rand::{Rng, SeedableRng};
 
@@ -229,5 +230,97 @@ fn same_seed_and_actions_give_identical_trajectories() {
         a[..c.len()],
         c[..],
         "another seed should give another trajectory"
+    );
+}
+
+#[test]
+fn the_scripted_opponent_blocks_a_shot_the_static_one_lets_in() {
+    for (opponent, scores) in [
+        (OpponentKind::Static, true),
+        (OpponentKind::Scripted, false),
+    ] {
+        let config = FoosballConfig {
+            opponent,
+            ..FoosballConfig::default()
+        };
+        // The scripted goalie gets a few steps to slide over before the ball arrives.
+        let mut env = placed(config, [5.0, 30.0], [0.0, 150.0]);
+        let ts = play_out(&mut env, 200);
+        assert_eq!(
+            ts.last().unwrap().info.scored(),
+            scores,
+            "{opponent:?}: {:?}",
+            ts.last().unwrap().info
+        );
+    }
+}
+
+#[test]
+fn domain_randomisation_draws_within_its_ranges_per_episode() {
+    let mut config = FoosballConfig::default();
+    let r = &mut config.randomization;
+    r.ball_mass_scale = [0.5, 1.5];
+    r.ball_friction_scale = [0.8, 1.2];
+    r.ball_restitution_scale = [0.9, 1.1];
+    r.servo_gain_scale = [0.7, 1.3];
+    r.position_noise_std = [0.1, 0.2];
+    r.action_latency_steps = [1, 3];
+    let mut env = FoosballEnv::new(config).unwrap();
+    let mut masses = Vec::new();
+    for seed in 0..20 {
+        env.reset(Some(seed));
+        let d = *env.episode_draw().unwrap();
+        assert!((0.05..=0.15).contains(&d.physics.ball_mass));
+        assert!((0.24..=0.36).contains(&d.physics.ball_friction));
+        assert!((0.54..=0.66).contains(&d.physics.ball_restitution));
+        assert!((0.7..=1.3).contains(&d.physics.servo_gain_scale));
+        assert!((0.1..=0.2).contains(&d.position_noise_std));
+        assert!((1..=3).contains(&d.action_latency));
+        masses.push(d.physics.ball_mass);
+    }
+    masses.sort_by(f32::total_cmp);
+    masses.dedup();
+    assert_eq!(masses.len(), 20, "each episode draws anew");
+}
+
+#[test]
+fn position_noise_touches_positions_only() {
+    let mut config = FoosballConfig::default();
+    config.randomization.position_noise_std = [0.5, 0.5];
+    let mut env = FoosballEnv::new(config).unwrap();
+    let obs = env.reset(Some(4));
+    assert!(
+        (obs[2] - BALL_RADIUS).abs() > 1e-6,
+        "ball z should be noisy"
+    );
+    assert!(obs[ROD_SLIDE].iter().all(|v| *v != 0.0));
+    assert!(obs[ROD_ANGLE].iter().all(|v| *v != 0.0));
+    // Velocities (ball 3..6, rods 14..22 and 30..38) are exact: all zero at rest.
+    assert!(
+        obs[3..6]
+            .iter()
+            .chain(&obs[14..22])
+            .chain(&obs[30..38])
+            .all(|v| *v == 0.0)
+    );
+}
+
+#[test]
+fn action_latency_delays_the_rods() {
+    let mut config = FoosballConfig::default();
+    config.randomization.action_latency_steps = [2, 2];
+    let mut env = env_with(config);
+    let mut a = NEUTRAL;
+    a[0] = 1.0; // yellow goalie slide
+    let slide = |obs: &[f32]| obs[ROD_SLIDE.start];
+    let first = env.step(&a).unwrap().0;
+    let second = env.step(&a).unwrap().0;
+    let third = env.step(&a).unwrap().0;
+    assert_eq!(slide(&first), 0.0);
+    assert_eq!(slide(&second), 0.0);
+    assert!(
+        slide(&third) > 0.5,
+        "the command arrives on the third step: {}",
+        slide(&third)
     );
 }
