@@ -1,5 +1,6 @@
 //! Physical behaviour of the simulated table, at the level of the rapier world.
 
+use foosball_rl::env::FoosballConfig;
 use foosball_rl::env::geometry::{self, BALL_RADIUS, RODS, foosman};
 use foosball_rl::env::table::{PhysicsParams, Table};
 
@@ -8,15 +9,10 @@ const BLACK_GOALIE: usize = 4;
 /// Yellow's attack in the global rod order.
 const YELLOW_ATTACK: usize = 3;
 
+/// The default config's nominal physics: 2 ms steps, 0.1 kg ball, friction 0.3,
+/// restitution 0.6, rolling resistance 0.015 g.
 fn params() -> PhysicsParams {
-    PhysicsParams {
-        dt: 0.002,
-        ball_mass: 0.1,
-        ball_friction: 0.3,
-        ball_restitution: 0.6,
-        rolling_resistance: 0.015,
-        servo_gain_scale: 1.0,
-    }
+    PhysicsParams::nominal(&FoosballConfig::default())
 }
 
 /// Steps `table` for `seconds`, returning the largest ball y and speed seen.

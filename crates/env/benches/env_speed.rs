@@ -38,14 +38,7 @@ fn random_actions(rng: &mut EnvRng, n: usize) -> Vec<f32> {
 
 fn main() {
     let config = FoosballConfig::default();
-    let params = PhysicsParams {
-        dt: config.physics_dt,
-        ball_mass: config.ball.mass,
-        ball_friction: config.ball.friction,
-        ball_restitution: config.ball.restitution,
-        rolling_resistance: config.ball.rolling_resistance,
-        servo_gain_scale: 1.0,
-    };
+    let params = PhysicsParams::nominal(&config);
 
     // Bare physics: the ball rolling about, every servo holding a target.
     let mut table = Table::new(&params, [-0.5, -0.1]);

@@ -167,25 +167,24 @@ impl FoosballEnv {
     }
 
     fn draw_episode(&mut self) -> EpisodeDraw {
-        let c = &self.config;
-        let r = &c.randomization;
+        let nominal = PhysicsParams::nominal(&self.config);
+        let r = &self.config.randomization;
         let rng = &mut self.rng;
-        let ball_mass = c.ball.mass * uniform(rng, r.ball_mass_scale);
-        let ball_friction = c.ball.friction * uniform(rng, r.ball_friction_scale);
+        let ball_mass = nominal.ball_mass * uniform(rng, r.ball_mass_scale);
+        let ball_friction = nominal.ball_friction * uniform(rng, r.ball_friction_scale);
         let ball_restitution =
-            (c.ball.restitution * uniform(rng, r.ball_restitution_scale)).min(1.0);
+            (nominal.ball_restitution * uniform(rng, r.ball_restitution_scale)).min(1.0);
         let servo_gain_scale = uniform(rng, r.servo_gain_scale);
         let position_noise_std = uniform(rng, r.position_noise_std);
         let [lo, hi] = r.action_latency_steps;
         let action_latency = rng.random_range(lo..=hi);
         EpisodeDraw {
             physics: PhysicsParams {
-                dt: c.physics_dt,
                 ball_mass,
                 ball_friction,
                 ball_restitution,
-                rolling_resistance: c.ball.rolling_resistance,
                 servo_gain_scale,
+                ..nominal
             },
             position_noise_std,
             action_latency,

@@ -11,6 +11,7 @@ use core::f32::consts::PI;
 
 use rapier3d::prelude::*;
 
+use crate::config::FoosballConfig;
 use crate::geometry::{self, NUM_RODS, RodSpec, Team, foosman};
 use crate::servo::Servo;
 
@@ -38,6 +39,20 @@ pub struct PhysicsParams {
     pub rolling_resistance: f32,
     /// Multiplier on every servo's kp and kv.
     pub servo_gain_scale: f32,
+}
+
+impl PhysicsParams {
+    /// The nominal (not randomised) settings of `config`.
+    pub fn nominal(config: &FoosballConfig) -> Self {
+        Self {
+            dt: config.physics_dt,
+            ball_mass: config.ball.mass,
+            ball_friction: config.ball.friction,
+            ball_restitution: config.ball.restitution,
+            rolling_resistance: config.ball.rolling_resistance,
+            servo_gain_scale: 1.0,
+        }
+    }
 }
 
 /// One rod's joint coordinates.
@@ -413,15 +428,10 @@ mod tests {
 
     #[test]
     fn rod_inertia_includes_the_men() {
-        let params = PhysicsParams {
-            dt: 0.002,
-            ball_mass: 0.1,
-            ball_friction: 0.3,
-            ball_restitution: 0.6,
-            rolling_resistance: 0.015,
-            servo_gain_scale: 1.0,
-        };
-        let t = Table::new(&params, [0.0, 0.0]);
+        let t = Table::new(
+            &PhysicsParams::nominal(&FoosballConfig::default()),
+            [0.0, 0.0],
+        );
         let goalie = &t.rods[0];
         // rod + fittings + 3 men
         assert!((goalie.slide_mass - (1.20268 + 0.11 + 0.21)).abs() < 1e-4);
