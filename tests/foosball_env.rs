@@ -324,3 +324,34 @@ fn action_latency_delays_the_rods() {
         slide(&third)
     );
 }
+
+#[test]
+fn a_physics_fault_truncates_with_a_finite_observation() {
+    // A ball knocked off the table.
+    let mut env = env_with(FoosballConfig::default());
+    env.table_mut()
+        .unwrap()
+        .set_ball([0.0, 0.0, 60.0], [0.0, 0.0, 500.0]);
+    let (obs, t) = env.step(&NEUTRAL).unwrap();
+    assert!(
+        t.info.physics_fault() && t.truncated && !t.terminated,
+        "{:?}",
+        t.info
+    );
+    assert!(obs.iter().all(|v| v.is_finite()));
+
+    // A non-finite state: the last good observation comes back, and the reward is finite.
+    let mut env = env_with(FoosballConfig::default());
+    let (good, _) = env.step(&NEUTRAL).unwrap();
+    env.table_mut()
+        .unwrap()
+        .set_ball([f32::NAN, 0.0, BALL_RADIUS], [0.0, 0.0, 0.0]);
+    let (obs, t) = env.step(&NEUTRAL).unwrap();
+    assert!(t.info.physics_fault() && t.truncated, "{:?}", t.info);
+    assert_eq!(obs, good);
+    assert!(
+        t.reward.is_finite() && t.info.goal_distance.is_finite() && t.info.ball_speed.is_finite()
+    );
+    assert_eq!(env.step(&NEUTRAL).unwrap_err(), EnvError::NeedsReset);
+    assert!(env.reset(None).iter().all(|v| v.is_finite()));
+}
