@@ -7,6 +7,7 @@
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
+use foosball_env::geometry::BALL_RADIUS;
 use foosball_env::layout::ACTION_DIM;
 use foosball_env::table::{PhysicsParams, Table};
 use foosball_env::{EndReason, Env, EnvRng, FoosballConfig, FoosballEnv, VecEnv};
@@ -42,7 +43,7 @@ fn main() {
 
     // Bare physics: the ball rolling about, every servo holding a target.
     let mut table = Table::new(&params, [-0.5, -0.1]);
-    table.set_ball([-30.0, -40.0, 1.73355], [0.0, 150.0, 0.0]);
+    table.set_ball([-30.0, -40.0, BALL_RADIUS], [0.0, 150.0, 0.0]);
     for i in 0..8 {
         table.set_target(i, 3.0, 0.5);
     }

@@ -239,12 +239,13 @@ impl FoosballEnv {
     }
 }
 
-/// Where the ball is: in a goal, out of the table, or in play.
-fn ball_event(state: &[f32; OBS_DIM]) -> Option<EndReason> {
-    if state.iter().any(|v| !v.is_finite()) {
+/// Where the ball is: in a goal, out of the table (or non-finite), or in play.
+fn ball_event(table: &Table) -> Option<EndReason> {
+    let [x, y, z] = table.ball_position();
+    let v = table.ball_velocity();
+    if !(x.is_finite() && y.is_finite() && z.is_finite() && v.iter().all(|c| c.is_finite())) {
         return Some(EndReason::PhysicsFault);
     }
-    let [x, y, z] = [state[0], state[1], state[2]];
     let in_mouth = x.abs() <= geometry::GOAL_HALF_WIDTH;
     if in_mouth && y >= geometry::GOAL_LINE_Y {
         return Some(EndReason::Scored);
@@ -327,16 +328,16 @@ impl Env for FoosballEnv {
         Self::set_targets(table, 4, &black);
 
         let mut event = None;
-        let mut state = ep.state;
         for _ in 0..self.config.frame_skip {
             table.step();
-            state = Self::observe(table);
-            event = ball_event(&state);
+            event = ball_event(table);
             if event.is_some() {
                 break;
             }
         }
-        if event == Some(EndReason::PhysicsFault) && state.iter().any(|v| !v.is_finite()) {
+        let mut state = Self::observe(table);
+        if state.iter().any(|v| !v.is_finite()) {
+            event = Some(EndReason::PhysicsFault);
             state = ep.state; // never hand out a poisoned observation
         }
 
