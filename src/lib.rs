@@ -1,1 +1,9 @@
+//! foosball-rl: deep reinforcement learning on a simulated foosball table, in Rust.
+//!
+//! - [`env`]: the table (rapier3d), Pendulum, vectorised environments, seeding;
+//! - [`nets`]: Burn networks, distributions, Adam;
+//! - [`algos`]: PPO, SAC, TD3, buffers and the agent/rollout shape.
+
+pub use foosball_algos as algos;
 pub use foosball_env as env;
+pub use foosball_nets as nets;

@@ -1,0 +1,114 @@
+//! The one shape every algorithm has, so one training loop drives PPO, SAC and TD3.
+
+use std::path::Path;
+
+/// How to pick actions.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ActMode {
+    /// Sample for exploration (training rollouts).
+    Explore,
+    /// The policy's deterministic action (evaluation and test).
+    Deterministic,
+}
+
+/// One vec-env step as the learner sees it; every slice is in env order.
+#[derive(Clone, Debug)]
+pub struct Experience<'a> {
+    /// Observations acted on, `[n_envs, obs_dim]`.
+    pub obs: &'a [f32],
+    /// Actions sent to the envs (what `act` returned), `[n_envs, action_dim]`.
+    pub actions: &'a [f32],
+    /// Rewards, `[n_envs]`.
+    pub rewards: &'a [f32],
+    /// Observations to act on next, after auto-reset, `[n_envs, obs_dim]`.
+    pub next_obs: &'a [f32],
+    /// The last observation of env `i`'s episode where it ended on this step.
+    pub final_obs: Vec<Option<&'a [f32]>>,
+    /// Episode reached a terminal state, `[n_envs]`.
+    pub terminated: &'a [bool],
+    /// Episode was cut by a time limit or fault, `[n_envs]`.
+    pub truncated: &'a [bool],
+}
+
+impl Experience<'_> {
+    /// Number of envs in the step.
+    pub fn len(&self) -> usize {
+        self.rewards.len()
+    }
+
+    /// Whether the step holds no env.
+    pub fn is_empty(&self) -> bool {
+        self.rewards.is_empty()
+    }
+
+    /// The state env `i`'s transition reached: its final observation where its episode
+    /// ended, else the next observation.
+    pub fn reached(&self, i: usize, obs_dim: usize) -> &[f32] {
+        self.final_obs[i].unwrap_or(&self.next_obs[i * obs_dim..(i + 1) * obs_dim])
+    }
+}
+
+/// Named scalars from one training round (losses, entropy, temperature, ...), averaged
+/// over its gradient steps.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Metrics(pub Vec<(&'static str, f64)>);
+
+impl Metrics {
+    /// The value named `name`, if reported.
+    pub fn get(&self, name: &str) -> Option<f64> {
+        self.0.iter().find(|(n, _)| *n == name).map(|(_, v)| *v)
+    }
+
+    /// Averages each name over several rounds' metrics (names in first-seen order).
+    pub fn mean(rounds: &[Metrics]) -> Metrics {
+        let mut sums: Vec<(&'static str, f64, usize)> = Vec::new();
+        for (name, value) in rounds.iter().flat_map(|m| m.0.iter()) {
+            match sums.iter_mut().find(|(n, _, _)| n == name) {
+                Some(entry) => {
+                    entry.1 += value;
+                    entry.2 += 1;
+                }
+                None => sums.push((name, *value, 1)),
+            }
+        }
+        Metrics(sums.into_iter().map(|(n, s, c)| (n, s / c as f64)).collect())
+    }
+}
+
+/// An error saving or loading an agent; names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum AgentError {
+    /// A network file could not be written or read.
+    #[error(transparent)]
+    Store(#[from] foosball_nets::store::StoreError),
+    /// Another file of the agent could not be written or read.
+    #[error("{path}: {message}")]
+    File {
+        /// The file at fault.
+        path: std::path::PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+}
+
+/// A learning algorithm driven by a training loop:
+/// `act` -> env step -> `observe` -> `update`, repeated.
+pub trait Agent {
+    /// Observation width.
+    fn obs_dim(&self) -> usize;
+    /// Action width.
+    fn action_dim(&self) -> usize;
+    /// Actions in `[-1, 1]`, `[n, action_dim]`, for observations `[n, obs_dim]`.
+    fn act(&mut self, obs: &[f32], mode: ActMode) -> Vec<f32>;
+    /// Records the step that followed the last `act(.., Explore)`.
+    fn observe(&mut self, step: &Experience<'_>);
+    /// Trains if the algorithm's schedule says so; `progress_remaining` goes from 1 (start
+    /// of training) to 0 (end) and drives learning-rate schedules.
+    fn update(&mut self, progress_remaining: f64) -> Option<Metrics>;
+    /// Transitions observed so far.
+    fn env_steps(&self) -> u64;
+    /// Writes the networks (Burn records) into `dir`.
+    fn save(&self, dir: &Path) -> Result<(), AgentError>;
+    /// Reads the networks written by `save` from `dir`.
+    fn load(&mut self, dir: &Path) -> Result<(), AgentError>;
+}

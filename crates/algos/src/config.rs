@@ -1,0 +1,123 @@
+//! Settings shared by the algorithms: the networks and their optimiser, and the
+//! off-policy replay schedule of SAC and TD3. Defaults are Stable-Baselines3's.
+
+use crate::schedule::LrSchedule;
+use foosball_nets::{Activation, AdamConfig};
+
+/// An invalid setting; `key` is its dotted path inside the algorithm's section.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{key}: {message}")]
+pub struct ConfigError {
+    /// Dotted key, e.g. `net.hidden`.
+    pub key: String,
+    /// What is wrong with its value.
+    pub message: String,
+}
+
+impl ConfigError {
+    /// An error for `key`.
+    pub fn new(key: impl Into<String>, message: impl Into<String>) -> Self {
+        Self {
+            key: key.into(),
+            message: message.into(),
+        }
+    }
+
+    /// The same error with `prefix.` put before its key.
+    pub fn under(self, prefix: &str) -> Self {
+        Self::new(format!("{prefix}.{}", self.key), self.message)
+    }
+}
+
+/// Checks `ok`, else an error for `key`.
+pub(crate) fn ensure(ok: bool, key: &str, message: &str) -> Result<(), ConfigError> {
+    if ok { Ok(()) } else { Err(ConfigError::new(key, message)) }
+}
+
+/// The networks of an algorithm (every actor and critic shares the hidden sizes) and
+/// their Adam optimisers.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NetConfig {
+    /// Hidden layer widths.
+    pub hidden: Vec<usize>,
+    /// Non-linearity between hidden layers.
+    pub activation: Activation,
+    /// Learning rate of every optimiser.
+    pub lr: LrSchedule,
+    /// Adam's betas, epsilon and global-norm gradient clipping.
+    pub adam: AdamConfig,
+}
+
+impl Default for NetConfig {
+    fn default() -> Self {
+        Self {
+            hidden: vec![256, 256],
+            activation: Activation::Relu,
+            lr: LrSchedule::Constant(3e-4),
+            adam: AdamConfig::default(),
+        }
+    }
+}
+
+impl NetConfig {
+    /// Rejects empty or zero widths, bad rates, betas outside `[0, 1)`, `eps <= 0` and a
+    /// non-positive clipping norm.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        ensure(!self.hidden.is_empty(), "hidden", "needs at least one hidden layer")?;
+        ensure(!self.hidden.contains(&0), "hidden", "widths must be positive")?;
+        ensure(self.lr.is_valid(), "lr", "learning rates must be finite and positive")?;
+        let beta = |b: f32| (0.0..1.0).contains(&b);
+        ensure(beta(self.adam.beta1), "adam.beta1", "must be in [0, 1)")?;
+        ensure(beta(self.adam.beta2), "adam.beta2", "must be in [0, 1)")?;
+        ensure(self.adam.eps > 0.0, "adam.eps", "must be positive")?;
+        let norm_ok = self.adam.max_grad_norm.is_none_or(|n| n.is_finite() && n > 0.0);
+        ensure(norm_ok, "adam.max_grad_norm", "must be finite and positive")
+    }
+}
+
+/// SAC's and TD3's replay schedule.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct OffPolicyConfig {
+    /// Replay capacity in transitions.
+    pub buffer_size: usize,
+    /// Transitions collected with uniform random actions before training starts.
+    pub learning_starts: u64,
+    /// Minibatch rows per gradient step.
+    pub batch_size: usize,
+    /// Polyak coefficient of the target networks.
+    pub tau: f32,
+    /// Discount factor.
+    pub gamma: f32,
+    /// Vec-env steps between training rounds.
+    pub train_freq: u64,
+    /// Gradient steps per training round.
+    pub gradient_steps: usize,
+}
+
+impl Default for OffPolicyConfig {
+    fn default() -> Self {
+        Self {
+            buffer_size: 1_000_000,
+            learning_starts: 100,
+            batch_size: 256,
+            tau: 0.005,
+            gamma: 0.99,
+            train_freq: 1,
+            gradient_steps: 1,
+        }
+    }
+}
+
+impl OffPolicyConfig {
+    /// Rejects zero sizes and coefficients outside their ranges.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        ensure(self.buffer_size > 0, "buffer_size", "must be positive")?;
+        ensure(self.batch_size > 0, "batch_size", "must be positive")?;
+        ensure(self.tau > 0.0 && self.tau <= 1.0, "tau", "must be in (0, 1]")?;
+        ensure((0.0..=1.0).contains(&self.gamma), "gamma", "must be in [0, 1]")?;
+        ensure(self.train_freq > 0, "train_freq", "must be positive")?;
+        ensure(self.gradient_steps > 0, "gradient_steps", "must be positive")
+    }
+}

@@ -1,0 +1,27 @@
+//! Learning algorithms for foosball-rl: PPO, SAC and TD3 with Stable-Baselines3's
+//! definitions, the replay buffer SAC and TD3 share, PPO's rollout buffer and GAE, and
+//! the [`Agent`] shape through which one training loop drives all three.
+//!
+//! Each algorithm file states its update equations at the top (CleanRL style); the
+//! networks and Adam live in `foosball-nets`, the environments in `foosball-env`.
+
+pub mod agent;
+pub mod config;
+pub mod gae;
+pub mod off_policy;
+pub mod ppo;
+pub mod replay;
+pub mod rollout;
+pub mod sac;
+pub mod schedule;
+pub mod td3;
+pub mod tensors;
+
+pub use agent::{ActMode, Agent, AgentError, Experience, Metrics};
+pub use config::{ConfigError, NetConfig, OffPolicyConfig};
+pub use ppo::{Ppo, PpoConfig};
+pub use replay::{ReplayBatch, ReplayBuffer};
+pub use rollout::{Collector, Episode, play_episode};
+pub use sac::{Sac, SacAgent, SacConfig};
+pub use schedule::LrSchedule;
+pub use td3::{Td3, Td3Agent, Td3Config};

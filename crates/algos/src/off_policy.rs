@@ -1,0 +1,138 @@
+//! What SAC and TD3 share: the replay buffer, uniform random actions before
+//! `learning_starts`, and the train-every-`train_freq`-steps schedule. The algorithm
+//! itself is an [`OffPolicyLearner`].
+
+use crate::agent::{ActMode, Agent, AgentError, Experience, Metrics};
+use crate::config::OffPolicyConfig;
+use crate::replay::{ReplayBatch, ReplayBuffer};
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+use std::path::Path;
+
+/// The algorithm-specific half of an off-policy agent.
+pub trait OffPolicyLearner {
+    /// Observation width.
+    fn obs_dim(&self) -> usize;
+    /// Action width.
+    fn action_dim(&self) -> usize;
+    /// The replay schedule.
+    fn schedule(&self) -> &OffPolicyConfig;
+    /// Policy actions in `[-1, 1]` for `[n, obs_dim]` observations (exploration noise
+    /// included when `mode` is `Explore`).
+    fn policy_act(&mut self, obs: &[f32], mode: ActMode, rng: &mut ChaCha8Rng) -> Vec<f32>;
+    /// One gradient step on a sampled minibatch with learning rate `lr`.
+    fn train_step(&mut self, batch: &ReplayBatch, lr: f64, rng: &mut ChaCha8Rng) -> Metrics;
+    /// The learning rate at `progress_remaining`.
+    fn lr(&self, progress_remaining: f64) -> f64;
+    /// Writes the networks into `dir`.
+    fn save(&self, dir: &Path) -> Result<(), AgentError>;
+    /// Reads the networks from `dir`.
+    fn load(&mut self, dir: &Path) -> Result<(), AgentError>;
+}
+
+/// An off-policy agent: a learner plus its replay buffer and schedule.
+pub struct OffPolicy<L> {
+    learner: L,
+    buffer: ReplayBuffer,
+    rng: ChaCha8Rng,
+    env_steps: u64,
+    steps_since_train: u64,
+}
+
+impl<L: OffPolicyLearner> OffPolicy<L> {
+    /// Wraps `learner`; `rng` draws random actions, minibatches and noise.
+    pub fn new(learner: L, rng: ChaCha8Rng) -> Self {
+        let s = learner.schedule();
+        let buffer = ReplayBuffer::new(s.buffer_size, learner.obs_dim(), learner.action_dim());
+        Self {
+            learner,
+            buffer,
+            rng,
+            env_steps: 0,
+            steps_since_train: 0,
+        }
+    }
+
+    /// The algorithm.
+    pub fn learner(&self) -> &L {
+        &self.learner
+    }
+
+    /// The replay buffer.
+    pub fn buffer(&self) -> &ReplayBuffer {
+        &self.buffer
+    }
+}
+
+impl<L: OffPolicyLearner> Agent for OffPolicy<L> {
+    fn obs_dim(&self) -> usize {
+        self.learner.obs_dim()
+    }
+
+    fn action_dim(&self) -> usize {
+        self.learner.action_dim()
+    }
+
+    fn act(&mut self, obs: &[f32], mode: ActMode) -> Vec<f32> {
+        let warming_up = self.env_steps < self.learner.schedule().learning_starts;
+        if mode == ActMode::Explore && warming_up {
+            let n = obs.len() / self.obs_dim() * self.action_dim();
+            return (0..n).map(|_| self.rng.random_range(-1.0..=1.0)).collect();
+        }
+        self.learner.policy_act(obs, mode, &mut self.rng)
+    }
+
+    fn observe(&mut self, step: &Experience<'_>) {
+        let (o, a) = (self.obs_dim(), self.action_dim());
+        for i in 0..step.len() {
+            self.buffer.push(
+                &step.obs[i * o..(i + 1) * o],
+                &step.actions[i * a..(i + 1) * a],
+                step.rewards[i],
+                step.reached(i, o),
+                step.terminated[i],
+                step.truncated[i],
+            );
+        }
+        self.env_steps += step.len() as u64;
+        self.steps_since_train += 1;
+    }
+
+    fn update(&mut self, progress_remaining: f64) -> Option<Metrics> {
+        let s = self.learner.schedule().clone();
+        if self.env_steps <= s.learning_starts || self.steps_since_train < s.train_freq {
+            return None;
+        }
+        self.steps_since_train = 0;
+        let lr = self.learner.lr(progress_remaining);
+        let rounds: Vec<Metrics> = (0..s.gradient_steps)
+            .map(|_| {
+                let batch = self.buffer.sample(s.batch_size, &mut self.rng);
+                self.learner.train_step(&batch, lr, &mut self.rng)
+            })
+            .collect();
+        Some(Metrics::mean(&rounds))
+    }
+
+    fn env_steps(&self) -> u64 {
+        self.env_steps
+    }
+
+    fn save(&self, dir: &Path) -> Result<(), AgentError> {
+        self.learner.save(dir)
+    }
+
+    fn load(&mut self, dir: &Path) -> Result<(), AgentError> {
+        self.learner.load(dir)
+    }
+}
+
+/// The one-step target `y = r + gamma * (1 - done) * next_value`, each `[batch]`.
+pub fn bellman_target(
+    rewards: foosball_nets::Tensor<1>,
+    dones: foosball_nets::Tensor<1>,
+    next_value: foosball_nets::Tensor<1>,
+    gamma: f32,
+) -> foosball_nets::Tensor<1> {
+    rewards + dones.neg().add_scalar(1.0).mul_scalar(gamma) * next_value
+}

@@ -1,0 +1,279 @@
+//! Soft Actor-Critic (Haarnoja et al. 2018) as Stable-Baselines3 defines it.
+//!
+//! Per gradient step, on a minibatch `(s, a, r, s', d)`:
+//! 1. `a~, log pi(a~|s)` from the current actor (reparameterised);
+//! 2. temperature: `L(log alpha) = -mean(log alpha * (log pi(a~|s) + H_target))`,
+//!    `H_target = -dim(A)`; `alpha` used below is the value *before* this step;
+//! 3. critics: `y = r + gamma (1 - d) (min(Q1', Q2')(s', a') - alpha log pi(a'|s'))`,
+//!    `a' ~ pi(.|s')`; `L = 0.5 * (MSE(Q1(s, a), y) + MSE(Q2(s, a), y))`;
+//! 4. actor, against the *updated* critics: `L = mean(alpha log pi(a~|s) - min(Q1, Q2)(s, a~))`;
+//! 5. targets: `theta' <- tau theta + (1 - tau) theta'` every `target_update_interval` steps.
+
+use crate::agent::{ActMode, AgentError, Metrics};
+use crate::config::{ConfigError, NetConfig, OffPolicyConfig, ensure};
+use crate::off_policy::{OffPolicy, OffPolicyLearner, bellman_target};
+use crate::replay::ReplayBatch;
+use crate::tensors::{host, matrix, mean, standard_normal, vector};
+use foosball_nets::store::{load_module, save_module};
+use foosball_nets::{Adam, Device, SquashedGaussianActor, Tensor, TwinQ, polyak_update};
+use burn::module::{Module, Param};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use std::path::Path;
+
+/// SAC's settings (SB3 defaults).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SacConfig {
+    /// Actor and critics.
+    pub net: NetConfig,
+    /// Replay schedule.
+    pub off_policy: OffPolicyConfig,
+    /// Initial temperature `alpha` (SB3's `"auto_1.0"`).
+    pub init_alpha: f32,
+    /// Target entropy; `None` means `-dim(A)`.
+    pub target_entropy: Option<f32>,
+    /// Gradient steps between target updates.
+    pub target_update_interval: u64,
+}
+
+impl Default for SacConfig {
+    fn default() -> Self {
+        Self {
+            net: NetConfig::default(),
+            off_policy: OffPolicyConfig::default(),
+            init_alpha: 1.0,
+            target_entropy: None,
+            target_update_interval: 1,
+        }
+    }
+}
+
+impl SacConfig {
+    /// Rejects invalid settings, naming the key.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.net.validate().map_err(|e| e.under("net"))?;
+        self.off_policy.validate().map_err(|e| e.under("off_policy"))?;
+        ensure(self.init_alpha > 0.0 && self.init_alpha.is_finite(), "init_alpha", "must be finite and positive")?;
+        ensure(self.target_entropy.is_none_or(f32::is_finite), "target_entropy", "must be finite")?;
+        ensure(self.target_update_interval > 0, "target_update_interval", "must be positive")
+    }
+}
+
+/// `log alpha`, a one-element trainable parameter.
+#[derive(Module, Debug)]
+pub struct Temperature {
+    log_alpha: Param<Tensor<1>>,
+}
+
+impl Temperature {
+    fn new(alpha: f32, device: &Device) -> Self {
+        let log_alpha = Tensor::from_data(foosball_nets::TensorData::new(vec![alpha.ln()], [1]), device);
+        Self { log_alpha: Param::from_tensor(log_alpha) }
+    }
+
+    /// `alpha = exp(log alpha)` on the host.
+    pub fn alpha(&self) -> f32 {
+        self.log_alpha.val().into_scalar::<f32>().exp()
+    }
+}
+
+/// `-mean(log_alpha * (log_prob + target_entropy))` with `log_prob` `[batch]` treated as a
+/// constant: its gradient raises `alpha` when the policy's entropy `-log pi` is below
+/// the target and lowers it otherwise.
+pub fn temperature_loss(log_alpha: Tensor<1>, log_prob: Tensor<1>, target_entropy: f32) -> Tensor<1> {
+    (log_alpha * log_prob.detach().add_scalar(target_entropy)).mean().neg()
+}
+
+/// The soft target `r + gamma (1 - d) (min_q_next - alpha * log_prob_next)`, `[batch]`.
+pub fn soft_target(
+    rewards: Tensor<1>,
+    dones: Tensor<1>,
+    min_q_next: Tensor<1>,
+    log_prob_next: Tensor<1>,
+    alpha: f32,
+    gamma: f32,
+) -> Tensor<1> {
+    bellman_target(rewards, dones, min_q_next - log_prob_next.mul_scalar(alpha), gamma)
+}
+
+/// SAC's networks, optimisers and counters.
+pub struct Sac {
+    config: SacConfig,
+    obs_dim: usize,
+    action_dim: usize,
+    device: Device,
+    actor: SquashedGaussianActor,
+    critic: TwinQ,
+    critic_target: TwinQ,
+    temperature: Temperature,
+    actor_optim: Adam,
+    critic_optim: Adam,
+    temperature_optim: Adam,
+    gradient_steps: u64,
+}
+
+/// SAC with its replay buffer: the [`crate::Agent`] to train.
+pub type SacAgent = OffPolicy<Sac>;
+
+impl Sac {
+    /// Networks drawn from `seed` in a fixed order (actor, critic; the target is a copy)
+    /// on `device` (an autodiff device).
+    pub fn agent(obs_dim: usize, action_dim: usize, config: SacConfig, seed: u64, device: &Device) -> SacAgent {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let n = &config.net;
+        let actor = SquashedGaussianActor::new(obs_dim, action_dim, &n.hidden, n.activation, &mut rng, device);
+        let critic = TwinQ::new(obs_dim, action_dim, &n.hidden, n.activation, &mut rng, device);
+        let critic_target = critic.clone().no_grad();
+        let adam = || Adam::new(n.adam.clone());
+        let learner = Sac {
+            obs_dim,
+            action_dim,
+            device: device.clone(),
+            temperature: Temperature::new(config.init_alpha, device),
+            actor_optim: adam(),
+            critic_optim: adam(),
+            temperature_optim: adam(),
+            actor,
+            critic,
+            critic_target,
+            gradient_steps: 0,
+            config,
+        };
+        OffPolicy::new(learner, rng)
+    }
+
+    fn target_entropy(&self) -> f32 {
+        self.config.target_entropy.unwrap_or(-(self.action_dim as f32))
+    }
+
+    /// The actor.
+    pub fn actor(&self) -> &SquashedGaussianActor {
+        &self.actor
+    }
+
+    /// The twin critics.
+    pub fn critic(&self) -> &TwinQ {
+        &self.critic
+    }
+
+    /// The current temperature `alpha`.
+    pub fn alpha(&self) -> f32 {
+        self.temperature.alpha()
+    }
+}
+
+impl OffPolicyLearner for Sac {
+    fn obs_dim(&self) -> usize {
+        self.obs_dim
+    }
+
+    fn action_dim(&self) -> usize {
+        self.action_dim
+    }
+
+    fn schedule(&self) -> &OffPolicyConfig {
+        &self.config.off_policy
+    }
+
+    fn lr(&self, progress_remaining: f64) -> f64 {
+        self.config.net.lr.at(progress_remaining)
+    }
+
+    fn policy_act(&mut self, obs: &[f32], mode: ActMode, rng: &mut ChaCha8Rng) -> Vec<f32> {
+        let actor = self.actor.valid();
+        let device = self.device.clone().without_autodiff();
+        let obs = matrix(obs, self.obs_dim, &device);
+        let actions = match mode {
+            ActMode::Deterministic => actor.deterministic(obs),
+            ActMode::Explore => {
+                let n = obs.dims()[0];
+                let noise = matrix(&standard_normal(n, self.action_dim, rng), self.action_dim, &device);
+                actor.sample(obs, noise).0
+            }
+        };
+        host(actions)
+    }
+
+    fn train_step(&mut self, batch: &ReplayBatch, lr: f64, rng: &mut ChaCha8Rng) -> Metrics {
+        let (o, a) = (self.obs_dim, self.action_dim);
+        let n = batch.rewards.len();
+        let dev = self.device.clone();
+        let plain = dev.clone().without_autodiff();
+        let gamma = self.config.off_policy.gamma;
+
+        // 1. Current policy on s (kept in the graph for the actor loss).
+        let obs = matrix(&batch.obs, o, &dev);
+        let noise = matrix(&standard_normal(n, a, rng), a, &dev);
+        let (actions_pi, log_prob) = self.actor.sample(obs.clone(), noise);
+
+        // 2. Temperature.
+        let alpha = self.temperature.alpha();
+        let alpha_loss = temperature_loss(self.temperature.log_alpha.val(), log_prob.clone(), self.target_entropy());
+        let alpha_loss_value = mean(alpha_loss.clone().inner());
+        let mut grads = alpha_loss.backward();
+        let temperature = std::mem::replace(&mut self.temperature, Temperature::new(1.0, &dev));
+        self.temperature = self.temperature_optim.step(temperature, &mut grads, lr).0;
+
+        // 3. Critics.
+        let next_obs = matrix(&batch.next_obs, o, &plain);
+        let next_noise = matrix(&standard_normal(n, a, rng), a, &plain);
+        let (next_actions, next_log_prob) = self.actor.valid().sample(next_obs.clone(), next_noise);
+        let min_q_next = self.critic_target.valid().min(next_obs, next_actions);
+        let rewards = vector(&batch.rewards, &plain);
+        let dones = vector(&batch.dones, &plain);
+        let target = soft_target(rewards, dones, min_q_next, next_log_prob, alpha, gamma).autodiff();
+        let (q1, q2) = self.critic.forward(obs.clone(), matrix(&batch.actions, a, &dev));
+        let critic_loss = ((q1.clone() - target.clone()).square().mean()
+            + (q2 - target).square().mean())
+        .mul_scalar(0.5);
+        let critic_loss_value = mean(critic_loss.clone().inner());
+        let mut grads = critic_loss.backward();
+        let critic = std::mem::replace(&mut self.critic, self.critic_target.clone());
+        let (critic, critic_report) = self.critic_optim.step(critic, &mut grads, lr);
+        self.critic = critic;
+
+        // 4. Actor, against the updated critics (their parameters frozen).
+        let min_q_pi = self.critic.clone().no_grad().min(obs, actions_pi);
+        let actor_loss = (log_prob.clone().mul_scalar(alpha) - min_q_pi).mean();
+        let actor_loss_value = mean(actor_loss.clone().inner());
+        let mut grads = actor_loss.backward();
+        let actor = self.actor.clone();
+        let (actor, actor_report) = self.actor_optim.step(actor, &mut grads, lr);
+        self.actor = actor;
+
+        // 5. Targets.
+        self.gradient_steps += 1;
+        if self.gradient_steps.is_multiple_of(self.config.target_update_interval) {
+            let target = std::mem::replace(&mut self.critic_target, self.critic.clone());
+            self.critic_target = polyak_update(target, &self.critic, self.config.off_policy.tau);
+        }
+
+        Metrics(vec![
+            ("critic_loss", critic_loss_value),
+            ("actor_loss", actor_loss_value),
+            ("alpha", f64::from(alpha)),
+            ("alpha_loss", alpha_loss_value),
+            ("entropy", -mean(log_prob.inner())),
+            ("q_mean", mean(q1.inner())),
+            ("critic_grad_norm", f64::from(critic_report.grad_norm)),
+            ("actor_grad_norm", f64::from(actor_report.grad_norm)),
+        ])
+    }
+
+    fn save(&self, dir: &Path) -> Result<(), AgentError> {
+        save_module(&self.actor, &dir.join("actor.bpk"))?;
+        save_module(&self.critic, &dir.join("critic.bpk"))?;
+        save_module(&self.critic_target, &dir.join("critic_target.bpk"))?;
+        save_module(&self.temperature, &dir.join("temperature.bpk"))?;
+        Ok(())
+    }
+
+    fn load(&mut self, dir: &Path) -> Result<(), AgentError> {
+        self.actor = load_module(self.actor.clone(), &dir.join("actor.bpk"))?;
+        self.critic = load_module(self.critic.clone(), &dir.join("critic.bpk"))?;
+        self.critic_target = load_module(self.critic_target.clone(), &dir.join("critic_target.bpk"))?;
+        self.temperature = load_module(self.temperature.clone(), &dir.join("temperature.bpk"))?;
+        Ok(())
+    }
+}

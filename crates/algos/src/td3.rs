@@ -1,0 +1,223 @@
+//! Twin Delayed DDPG (Fujimoto et al. 2018) as Stable-Baselines3 defines it.
+//!
+//! Per gradient step, on a minibatch `(s, a, r, s', d)`:
+//! 1. target action `a' = clip(pi'(s') + clip(eps, -c, c), -1, 1)`, `eps ~ N(0, sigma^2)`
+//!    drawn per element;
+//! 2. critics: `y = r + gamma (1 - d) min(Q1', Q2')(s', a')`,
+//!    `L = MSE(Q1(s, a), y) + MSE(Q2(s, a), y)`;
+//! 3. every `policy_delay` steps: actor `L = -mean(Q1(s, pi(s)))`, then polyak updates of
+//!    both target networks (targets move only on these delayed steps).
+//!
+//! Exploration adds `N(0, action_noise^2)` to the deterministic action, clipped to `[-1, 1]`.
+
+use crate::agent::{ActMode, AgentError, Metrics};
+use crate::config::{ConfigError, NetConfig, OffPolicyConfig, ensure};
+use crate::off_policy::{OffPolicy, OffPolicyLearner, bellman_target};
+use crate::replay::ReplayBatch;
+use crate::tensors::{host, matrix, mean, standard_normal, vector};
+use burn::module::Module;
+use foosball_nets::store::{load_module, save_module};
+use foosball_nets::{Adam, DeterministicActor, Device, Tensor, TwinQ, polyak_update};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use std::path::Path;
+
+/// TD3's settings (SB3 defaults; exploration noise as in the paper and RL Zoo).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Td3Config {
+    /// Actor and critics.
+    pub net: NetConfig,
+    /// Replay schedule.
+    pub off_policy: OffPolicyConfig,
+    /// Critic updates per actor and target update.
+    pub policy_delay: u64,
+    /// Standard deviation of the target policy smoothing noise.
+    pub target_policy_noise: f32,
+    /// Clip of the target policy smoothing noise.
+    pub target_noise_clip: f32,
+    /// Standard deviation of the Gaussian exploration noise (0 disables it).
+    pub action_noise: f32,
+}
+
+impl Default for Td3Config {
+    fn default() -> Self {
+        Self {
+            net: NetConfig::default(),
+            off_policy: OffPolicyConfig::default(),
+            policy_delay: 2,
+            target_policy_noise: 0.2,
+            target_noise_clip: 0.5,
+            action_noise: 0.1,
+        }
+    }
+}
+
+impl Td3Config {
+    /// Rejects invalid settings, naming the key.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.net.validate().map_err(|e| e.under("net"))?;
+        self.off_policy.validate().map_err(|e| e.under("off_policy"))?;
+        ensure(self.policy_delay > 0, "policy_delay", "must be positive")?;
+        let non_negative = |x: f32| x.is_finite() && x >= 0.0;
+        ensure(non_negative(self.target_policy_noise), "target_policy_noise", "must be finite and >= 0")?;
+        ensure(non_negative(self.target_noise_clip), "target_noise_clip", "must be finite and >= 0")?;
+        ensure(non_negative(self.action_noise), "action_noise", "must be finite and >= 0")
+    }
+}
+
+/// Target policy smoothing: `clip(next_actions + clip(noise, -clip, clip), -1, 1)`,
+/// element by element, `[batch, action_dim]`.
+pub fn smoothed_target_actions(next_actions: Tensor<2>, noise: Tensor<2>, noise_clip: f32) -> Tensor<2> {
+    (next_actions + noise.clamp(-noise_clip, noise_clip)).clamp(-1.0, 1.0)
+}
+
+/// TD3's networks, optimisers and counters.
+pub struct Td3 {
+    config: Td3Config,
+    obs_dim: usize,
+    action_dim: usize,
+    device: Device,
+    actor: DeterministicActor,
+    actor_target: DeterministicActor,
+    critic: TwinQ,
+    critic_target: TwinQ,
+    actor_optim: Adam,
+    critic_optim: Adam,
+    gradient_steps: u64,
+    last_actor_loss: f64,
+}
+
+/// TD3 with its replay buffer: the [`crate::Agent`] to train.
+pub type Td3Agent = OffPolicy<Td3>;
+
+impl Td3 {
+    /// Networks drawn from `seed` in a fixed order (actor, critic; targets are copies)
+    /// on `device` (an autodiff device).
+    pub fn agent(obs_dim: usize, action_dim: usize, config: Td3Config, seed: u64, device: &Device) -> Td3Agent {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let n = &config.net;
+        let actor = DeterministicActor::new(obs_dim, action_dim, &n.hidden, n.activation, &mut rng, device);
+        let critic = TwinQ::new(obs_dim, action_dim, &n.hidden, n.activation, &mut rng, device);
+        let learner = Td3 {
+            obs_dim,
+            action_dim,
+            device: device.clone(),
+            actor_target: actor.clone().no_grad(),
+            critic_target: critic.clone().no_grad(),
+            actor_optim: Adam::new(n.adam.clone()),
+            critic_optim: Adam::new(n.adam.clone()),
+            actor,
+            critic,
+            gradient_steps: 0,
+            last_actor_loss: f64::NAN,
+            config,
+        };
+        OffPolicy::new(learner, rng)
+    }
+
+    /// The actor.
+    pub fn actor(&self) -> &DeterministicActor {
+        &self.actor
+    }
+
+    /// The twin critics.
+    pub fn critic(&self) -> &TwinQ {
+        &self.critic
+    }
+}
+
+impl OffPolicyLearner for Td3 {
+    fn obs_dim(&self) -> usize {
+        self.obs_dim
+    }
+
+    fn action_dim(&self) -> usize {
+        self.action_dim
+    }
+
+    fn schedule(&self) -> &OffPolicyConfig {
+        &self.config.off_policy
+    }
+
+    fn lr(&self, progress_remaining: f64) -> f64 {
+        self.config.net.lr.at(progress_remaining)
+    }
+
+    fn policy_act(&mut self, obs: &[f32], mode: ActMode, rng: &mut ChaCha8Rng) -> Vec<f32> {
+        let device = self.device.clone().without_autodiff();
+        let mut actions = host(self.actor.valid().forward(matrix(obs, self.obs_dim, &device)));
+        let sigma = self.config.action_noise;
+        if mode == ActMode::Explore && sigma > 0.0 {
+            let noise = standard_normal(actions.len(), 1, rng);
+            for (x, e) in actions.iter_mut().zip(noise) {
+                *x = (*x + sigma * e).clamp(-1.0, 1.0);
+            }
+        }
+        actions
+    }
+
+    fn train_step(&mut self, batch: &ReplayBatch, lr: f64, rng: &mut ChaCha8Rng) -> Metrics {
+        let (o, a) = (self.obs_dim, self.action_dim);
+        let n = batch.rewards.len();
+        let dev = self.device.clone();
+        let plain = dev.clone().without_autodiff();
+        let c = &self.config;
+
+        // 1-2. Critics against the smoothed target.
+        let next_obs = matrix(&batch.next_obs, o, &plain);
+        let noise: Vec<f32> = standard_normal(n, a, rng).iter().map(|e| e * c.target_policy_noise).collect();
+        let next_actions = smoothed_target_actions(
+            self.actor_target.valid().forward(next_obs.clone()),
+            matrix(&noise, a, &plain),
+            c.target_noise_clip,
+        );
+        let min_q_next = self.critic_target.valid().min(next_obs, next_actions);
+        let rewards = vector(&batch.rewards, &plain);
+        let dones = vector(&batch.dones, &plain);
+        let target = bellman_target(rewards, dones, min_q_next, c.off_policy.gamma).autodiff();
+        let obs = matrix(&batch.obs, o, &dev);
+        let (q1, q2) = self.critic.forward(obs.clone(), matrix(&batch.actions, a, &dev));
+        let critic_loss = (q1.clone() - target.clone()).square().mean() + (q2 - target).square().mean();
+        let critic_loss_value = mean(critic_loss.clone().inner());
+        let mut grads = critic_loss.backward();
+        let (critic, critic_report) = self.critic_optim.step(self.critic.clone(), &mut grads, lr);
+        self.critic = critic;
+        self.gradient_steps += 1;
+
+        // 3. Delayed actor and target updates.
+        if self.gradient_steps.is_multiple_of(c.policy_delay) {
+            let q_pi = self.critic.q1.clone().no_grad().forward(obs.clone(), self.actor.forward(obs));
+            let actor_loss = q_pi.mean().neg();
+            self.last_actor_loss = mean(actor_loss.clone().inner());
+            let mut grads = actor_loss.backward();
+            self.actor = self.actor_optim.step(self.actor.clone(), &mut grads, lr).0;
+            let tau = c.off_policy.tau;
+            self.critic_target = polyak_update(self.critic_target.clone(), &self.critic, tau);
+            self.actor_target = polyak_update(self.actor_target.clone(), &self.actor, tau);
+        }
+
+        Metrics(vec![
+            ("critic_loss", critic_loss_value),
+            ("actor_loss", self.last_actor_loss),
+            ("q_mean", mean(q1.inner())),
+            ("critic_grad_norm", f64::from(critic_report.grad_norm)),
+        ])
+    }
+
+    fn save(&self, dir: &Path) -> Result<(), AgentError> {
+        save_module(&self.actor, &dir.join("actor.bpk"))?;
+        save_module(&self.actor_target, &dir.join("actor_target.bpk"))?;
+        save_module(&self.critic, &dir.join("critic.bpk"))?;
+        save_module(&self.critic_target, &dir.join("critic_target.bpk"))?;
+        Ok(())
+    }
+
+    fn load(&mut self, dir: &Path) -> Result<(), AgentError> {
+        self.actor = load_module(self.actor.clone(), &dir.join("actor.bpk"))?;
+        self.actor_target = load_module(self.actor_target.clone(), &dir.join("actor_target.bpk"))?;
+        self.critic = load_module(self.critic.clone(), &dir.join("critic.bpk"))?;
+        self.critic_target = load_module(self.critic_target.clone(), &dir.join("critic_target.bpk"))?;
+        Ok(())
+    }
+}

@@ -1,0 +1,123 @@
+//! Policies: SAC's squashed Gaussian, TD3's deterministic tanh actor and PPO's Gaussian.
+
+use crate::distributions::{diag_gaussian_entropy, diag_gaussian_log_prob, squashed_gaussian_log_prob};
+use crate::mlp::{Activation, Mlp};
+use burn::module::{Module, Param};
+use burn::tensor::activation::tanh;
+use burn::tensor::{Device, Tensor};
+use rand::Rng;
+
+/// Lower clamp of SAC's log standard deviation (SB3's `LOG_STD_MIN`).
+pub const LOG_STD_MIN: f32 = -20.0;
+/// Upper clamp of SAC's log standard deviation (SB3's `LOG_STD_MAX`).
+pub const LOG_STD_MAX: f32 = 2.0;
+
+/// SAC's actor: an MLP whose output layer holds the mean and the log standard deviation
+/// of `u` (equivalent to SB3's two linear heads on a shared trunk); actions are `tanh(u)`.
+#[derive(Module, Debug)]
+pub struct SquashedGaussianActor {
+    net: Mlp,
+}
+
+impl SquashedGaussianActor {
+    /// Parameters drawn from `rng` (see [`Mlp::new`]).
+    pub fn new(
+        obs_dim: usize,
+        action_dim: usize,
+        hidden: &[usize],
+        activation: Activation,
+        rng: &mut impl Rng,
+        device: &Device,
+    ) -> Self {
+        let net = Mlp::new(obs_dim, hidden, 2 * action_dim, activation, rng, device);
+        Self { net }
+    }
+
+    /// Mean and clamped log standard deviation of `u`, each `[batch, action_dim]`.
+    pub fn distribution(&self, obs: Tensor<2>) -> (Tensor<2>, Tensor<2>) {
+        let out = self.net.forward(obs);
+        let action_dim = out.dims()[1] / 2;
+        let mean = out.clone().narrow(1, 0, action_dim);
+        let log_std = out.narrow(1, action_dim, action_dim).clamp(LOG_STD_MIN, LOG_STD_MAX);
+        (mean, log_std)
+    }
+
+    /// Reparameterised sample `a = tanh(mean + std * noise)` with `noise ~ N(0, 1)`
+    /// `[batch, action_dim]` supplied by the caller; returns `(a, log pi(a|s) [batch])`.
+    pub fn sample(&self, obs: Tensor<2>, noise: Tensor<2>) -> (Tensor<2>, Tensor<1>) {
+        let (mean, log_std) = self.distribution(obs);
+        let u = mean.clone() + log_std.clone().exp() * noise;
+        let log_prob = squashed_gaussian_log_prob(mean, log_std, u.clone());
+        (tanh(u), log_prob)
+    }
+
+    /// The deterministic action `tanh(mean)`, `[batch, action_dim]`.
+    pub fn deterministic(&self, obs: Tensor<2>) -> Tensor<2> {
+        tanh(self.distribution(obs).0)
+    }
+}
+
+/// TD3's actor: `tanh(mlp(obs))`, `[batch, obs_dim] -> [batch, action_dim]`.
+#[derive(Module, Debug)]
+pub struct DeterministicActor {
+    net: Mlp,
+}
+
+impl DeterministicActor {
+    /// Parameters drawn from `rng` (see [`Mlp::new`]).
+    pub fn new(
+        obs_dim: usize,
+        action_dim: usize,
+        hidden: &[usize],
+        activation: Activation,
+        rng: &mut impl Rng,
+        device: &Device,
+    ) -> Self {
+        let net = Mlp::new(obs_dim, hidden, action_dim, activation, rng, device);
+        Self { net }
+    }
+
+    /// Actions in `[-1, 1]`, `[batch, action_dim]`.
+    pub fn forward(&self, obs: Tensor<2>) -> Tensor<2> {
+        tanh(self.net.forward(obs))
+    }
+}
+
+/// PPO's policy: a Gaussian whose mean is `mlp(obs)` and whose log standard deviation
+/// is a state-independent parameter (initialised to 0, as SB3's `log_std_init`).
+/// Actions are unbounded; the caller clips them to `[-1, 1]` for the env.
+#[derive(Module, Debug)]
+pub struct GaussianPolicy {
+    net: Mlp,
+    log_std: Param<Tensor<1>>,
+}
+
+impl GaussianPolicy {
+    /// Parameters drawn from `rng` (see [`Mlp::new`]).
+    pub fn new(
+        obs_dim: usize,
+        action_dim: usize,
+        hidden: &[usize],
+        activation: Activation,
+        rng: &mut impl Rng,
+        device: &Device,
+    ) -> Self {
+        let net = Mlp::new(obs_dim, hidden, action_dim, activation, rng, device);
+        let log_std = Param::from_tensor(Tensor::zeros([action_dim], device));
+        Self { net, log_std }
+    }
+
+    /// Mean and log standard deviation, each `[batch, action_dim]`.
+    pub fn distribution(&self, obs: Tensor<2>) -> (Tensor<2>, Tensor<2>) {
+        let mean = self.net.forward(obs);
+        let log_std = self.log_std.val().unsqueeze::<2>().expand(mean.dims());
+        (mean, log_std)
+    }
+
+    /// `(log pi(actions|obs), entropy)`, each `[batch]`.
+    pub fn evaluate(&self, obs: Tensor<2>, actions: Tensor<2>) -> (Tensor<1>, Tensor<1>) {
+        let (mean, log_std) = self.distribution(obs);
+        let log_prob = diag_gaussian_log_prob(mean, log_std.clone(), actions);
+        (log_prob, diag_gaussian_entropy(log_std))
+    }
+}

@@ -1,0 +1,27 @@
+//! Burn networks for foosball-rl: the MLP and the actor/critic heads of PPO, SAC and TD3,
+//! the action distributions, parameter-wise utilities (polyak averaging, flat views),
+//! Adam with PyTorch's epsilon and global-norm gradient clipping, and backend selection.
+//!
+//! Tensors are row-major batches: observations `[batch, obs_dim]`, actions
+//! `[batch, action_dim]`, values and log-probabilities `[batch]`. Parameters are drawn
+//! from the caller's seeded RNG (PyTorch's default `nn.Linear` law), never from a
+//! backend's global RNG, so a seed fixes a network whatever the backend or thread count.
+
+pub mod actor;
+pub mod backend;
+pub mod critic;
+pub mod distributions;
+pub mod init;
+pub mod mlp;
+pub mod optim;
+pub mod params;
+pub mod store;
+
+pub use actor::{DeterministicActor, GaussianPolicy, SquashedGaussianActor};
+pub use backend::{Backend, BackendError};
+pub use burn;
+pub use burn::tensor::{Device, Tensor, TensorData};
+pub use critic::{QNetwork, TwinQ, ValueCritic};
+pub use mlp::{Activation, Mlp};
+pub use optim::{Adam, AdamConfig, StepReport};
+pub use params::polyak_update;

@@ -1,0 +1,89 @@
+//! Parameter-wise views of a module: every float parameter flattened to `[numel]`, in
+//! the module's visiting order (field order, layers input side first). Optimisers,
+//! polyak averaging and checkpoints all walk parameters through these two functions.
+
+use burn::module::{Module, ModuleMapper, ModuleVisitor, Param};
+use burn::tensor::{Gradients, Tensor};
+
+struct Collect<'g> {
+    grads: Option<&'g mut Gradients>,
+    values: Vec<Tensor<1>>,
+    gradients: Vec<Option<Tensor<1>>>,
+}
+
+impl ModuleVisitor for Collect<'_> {
+    fn visit_float<const D: usize>(&mut self, param: &Param<Tensor<D>>) {
+        let value = param.val();
+        let numel = value.shape().num_elements();
+        if let Some(grads) = self.grads.as_deref_mut() {
+            let grad = value.grad_remove(grads).map(|g| g.reshape([numel]));
+            self.gradients.push(grad);
+        } else {
+            self.values.push(value.inner().reshape([numel]));
+        }
+    }
+}
+
+/// Every float parameter's value, detached from autodiff, flattened to `[numel]`.
+pub fn flat_params<M: Module>(module: &M) -> Vec<Tensor<1>> {
+    let mut visitor = Collect {
+        grads: None,
+        values: Vec::new(),
+        gradients: Vec::new(),
+    };
+    module.visit(&mut visitor);
+    visitor.values
+}
+
+/// Every float parameter's gradient taken out of `grads`, flattened to `[numel]`
+/// (`None` for a parameter the loss does not depend on).
+pub fn flat_grads<M: Module>(module: &M, grads: &mut Gradients) -> Vec<Option<Tensor<1>>> {
+    let mut visitor = Collect {
+        grads: Some(grads),
+        values: Vec::new(),
+        gradients: Vec::new(),
+    };
+    module.visit(&mut visitor);
+    visitor.gradients
+}
+
+struct Replace<F> {
+    index: usize,
+    update: F,
+}
+
+impl<F: FnMut(usize, Tensor<1>) -> Tensor<1>> ModuleMapper for Replace<F> {
+    fn map_float<const D: usize>(&mut self, param: Param<Tensor<D>>) -> Param<Tensor<D>> {
+        let index = self.index;
+        self.index += 1;
+        param.map(|value| {
+            let dims = value.dims();
+            let require_grad = value.is_require_grad();
+            let autodiff = value.is_autodiff();
+            let flat = value.inner().reshape([dims.iter().product::<usize>()]);
+            let updated = (self.update)(index, flat).reshape(dims);
+            let updated = if autodiff { updated.autodiff() } else { updated };
+            if require_grad { updated.require_grad() } else { updated }
+        })
+    }
+}
+
+/// Replaces every float parameter by `update(index, flat_value)` (detached, `[numel]`),
+/// keeping its shape, its id and whether it requires gradients.
+pub fn map_flat_params<M: Module>(module: M, update: impl FnMut(usize, Tensor<1>) -> Tensor<1>) -> M {
+    module.map(&mut Replace { index: 0, update })
+}
+
+/// `target <- tau * online + (1 - tau) * target`, parameter by parameter.
+pub fn polyak_update<M: Module>(target: M, online: &M, tau: f32) -> M {
+    let online = flat_params(online);
+    map_flat_params(target, |i, t| t.mul_scalar(1.0 - tau) + online[i].clone().mul_scalar(tau))
+}
+
+/// Every float parameter's values on the host, in visiting order.
+pub fn host_params<M: Module>(module: &M) -> Vec<Vec<f32>> {
+    flat_params(module)
+        .into_iter()
+        .map(|t| t.into_data().try_into_vec::<f32>().expect("float parameters are f32"))
+        .collect()
+}
