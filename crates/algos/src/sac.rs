@@ -277,3 +277,45 @@ impl OffPolicyLearner for Sac {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use foosball_nets::Backend;
+
+    fn device() -> Device {
+        Backend::default_cpu().unwrap().device().unwrap()
+    }
+
+    #[test]
+    fn the_soft_target_bootstraps_only_non_terminal_rows() {
+        let d = device();
+        let y = soft_target(
+            vector(&[1.0, 2.0], &d),
+            vector(&[0.0, 1.0], &d),
+            vector(&[10.0, 20.0], &d),
+            vector(&[-1.0, 3.0], &d),
+            0.5,
+            0.9,
+        );
+        let y = host(y);
+        assert!((y[0] - (1.0 + 0.9 * (10.0 + 0.5))).abs() < 1e-5, "{y:?}");
+        assert_eq!(y[1], 2.0);
+    }
+
+    /// d loss / d log_alpha = -mean(log_prob + target_entropy).
+    fn temperature_gradient(log_prob: &[f32], target_entropy: f32) -> f32 {
+        let d = device();
+        let log_alpha = vector(&[0.3], &d).require_grad();
+        let loss = temperature_loss(log_alpha.clone(), vector(log_prob, &d), target_entropy);
+        host(log_alpha.grad(&loss.backward()).unwrap())[0]
+    }
+
+    #[test]
+    fn the_temperature_falls_when_entropy_exceeds_the_target_and_rises_otherwise() {
+        // Entropy estimate -mean(log_prob) = 3 > target -1: gradient +4, descent lowers alpha.
+        assert!((temperature_gradient(&[-2.0, -4.0], -1.0) - 4.0).abs() < 1e-6);
+        // Entropy -2 < target -1: gradient -1, descent raises alpha.
+        assert!((temperature_gradient(&[2.0, 2.0], -1.0) + 1.0).abs() < 1e-6);
+    }
+}

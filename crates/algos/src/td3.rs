@@ -221,3 +221,21 @@ impl OffPolicyLearner for Td3 {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use foosball_nets::Backend;
+
+    #[test]
+    fn target_smoothing_clips_the_noise_then_the_action_per_element() {
+        let d = Backend::default_cpu().unwrap().device().unwrap();
+        let next = matrix(&[0.9, -0.2, 0.0, 0.1], 2, &d);
+        let noise = matrix(&[0.7, -0.1, -0.8, 0.3], 2, &d);
+        let got = host(smoothed_target_actions(next, noise, 0.5));
+        let want = [1.0, -0.3, -0.5, 0.4];
+        for (g, w) in got.iter().zip(want) {
+            assert!((g - w).abs() < 1e-6, "{got:?}");
+        }
+    }
+}
