@@ -14,13 +14,20 @@ fn device() -> Device {
 /// Drives `agent` on 2 Pendulums until it has taken `updates` training rounds, inside a
 /// rayon pool of `threads` threads.
 fn run<A: Agent + Send>(mut agent: A, updates: usize, threads: usize) -> A {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
     pool.install(|| {
         let envs = VecEnv::new(vec![Pendulum::new(), Pendulum::new()], threads).unwrap();
         let mut collector = Collector::new(envs, 11);
         let mut rounds = 0;
         while rounds < updates {
-            if collector.step(&mut agent, 1.0, |_, _, _| {}).unwrap().is_some() {
+            if collector
+                .step(&mut agent, 1.0, |_, _, _| {})
+                .unwrap()
+                .is_some()
+            {
                 rounds += 1;
             }
         }
@@ -39,7 +46,10 @@ fn sac_config() -> SacConfig {
 }
 
 fn params_of<M: Module>(m: &M) -> Vec<Vec<u32>> {
-    host_params(m).into_iter().map(|p| p.into_iter().map(f32::to_bits).collect()).collect()
+    host_params(m)
+        .into_iter()
+        .map(|p| p.into_iter().map(f32::to_bits).collect())
+        .collect()
 }
 
 #[test]
@@ -48,10 +58,16 @@ fn sac_is_bit_identical_across_runs_and_thread_counts() {
     let a = run(make(), 200, 1);
     let b = run(make(), 200, 1);
     let c = run(make(), 200, 2);
-    let (pa, pc) = (params_of(a.learner().actor()), params_of(c.learner().actor()));
+    let (pa, pc) = (
+        params_of(a.learner().actor()),
+        params_of(c.learner().actor()),
+    );
     assert_eq!(pa, params_of(b.learner().actor()));
     assert_eq!(pa, pc, "actor differs between 1 and 2 threads");
-    assert_eq!(params_of(a.learner().critic()), params_of(c.learner().critic()));
+    assert_eq!(
+        params_of(a.learner().critic()),
+        params_of(c.learner().critic())
+    );
     assert_eq!(a.learner().alpha(), c.learner().alpha());
     // And training did move the parameters.
     assert_ne!(pa, params_of(make().learner().actor()));
@@ -65,8 +81,14 @@ fn td3_is_bit_identical_across_thread_counts() {
     let make = || Td3::agent(3, 1, config.clone(), 5, &device());
     let a = run(make(), 200, 1);
     let c = run(make(), 200, 2);
-    assert_eq!(params_of(a.learner().actor()), params_of(c.learner().actor()));
-    assert_eq!(params_of(a.learner().critic()), params_of(c.learner().critic()));
+    assert_eq!(
+        params_of(a.learner().actor()),
+        params_of(c.learner().actor())
+    );
+    assert_eq!(
+        params_of(a.learner().critic()),
+        params_of(c.learner().critic())
+    );
 }
 
 #[test]

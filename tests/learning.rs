@@ -5,7 +5,9 @@
 //! untrained return by >= 500 within 200,000 steps and ends >= -400.
 //! `cargo test --release --test learning -- --nocapture` prints the figures.
 
-use foosball_rl::algos::{Agent, Collector, LrSchedule, Ppo, PpoConfig, Sac, SacConfig, Td3, Td3Config, play_episode};
+use foosball_rl::algos::{
+    Agent, Collector, LrSchedule, Ppo, PpoConfig, Sac, SacConfig, Td3, Td3Config, play_episode,
+};
 use foosball_rl::env::seeding::{EVAL_ENVS, LEARNER, derive_seed};
 use foosball_rl::env::{Pendulum, VecEnv};
 use foosball_rl::nets::{Backend, Device};
@@ -19,7 +21,12 @@ fn device() -> Device {
 fn evaluate(agent: &mut dyn Agent) -> f64 {
     let mut env = Pendulum::new();
     let total: f64 = (0..10)
-        .map(|k| play_episode(agent, &mut env, derive_seed(SEED, EVAL_ENVS, k)).unwrap().0.ret)
+        .map(|k| {
+            play_episode(agent, &mut env, derive_seed(SEED, EVAL_ENVS, k))
+                .unwrap()
+                .0
+                .ret
+        })
         .sum();
     total / 10.0
 }
@@ -76,6 +83,9 @@ fn ppo_improves_by_500_within_200k_steps() {
     let mut agent = Ppo::new(3, 1, config, derive_seed(SEED, LEARNER, 0), &device());
     let (before, after) = train(&mut agent, 4, 200_000);
     eprintln!("PPO Pendulum: {before:.1} -> {after:.1} after 200k steps");
-    assert!(after - before >= 500.0, "PPO went from {before:.1} to {after:.1}");
+    assert!(
+        after - before >= 500.0,
+        "PPO went from {before:.1} to {after:.1}"
+    );
     assert!(after >= -400.0, "PPO reached {after:.1}");
 }

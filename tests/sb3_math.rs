@@ -7,7 +7,9 @@ mod common;
 use foosball_rl::algos::gae::gae;
 use foosball_rl::algos::ppo::{clipped_surrogate, normalize_advantages};
 use foosball_rl::algos::tensors::{host, matrix, vector};
-use foosball_rl::nets::distributions::{diag_gaussian_entropy, diag_gaussian_log_prob, squashed_gaussian_log_prob};
+use foosball_rl::nets::distributions::{
+    diag_gaussian_entropy, diag_gaussian_log_prob, squashed_gaussian_log_prob,
+};
 use foosball_rl::nets::{Backend, Device};
 use serde_json::Value;
 
@@ -36,7 +38,10 @@ fn device() -> Device {
 fn assert_close(got: &[f32], want: &[f32], tol: f32, what: &str) {
     assert_eq!(got.len(), want.len(), "{what}: lengths");
     for (i, (g, w)) in got.iter().zip(want).enumerate() {
-        assert!((g - w).abs() <= tol * w.abs().max(1.0), "{what}[{i}]: {g} vs {w}");
+        assert!(
+            (g - w).abs() <= tol * w.abs().max(1.0),
+            "{what}[{i}]: {g} vs {w}"
+        );
     }
 }
 
@@ -92,7 +97,12 @@ fn diag_gaussian_log_prob_and_entropy_match_sb3() {
         matrix(&floats(&c["actions"]), a, &d),
     );
     assert_close(&host(log_prob), &floats(&c["log_prob"]), 1e-5, "log_prob");
-    assert_close(&host(diag_gaussian_entropy(log_std)), &floats(&c["entropy"]), 1e-5, "entropy");
+    assert_close(
+        &host(diag_gaussian_entropy(log_std)),
+        &floats(&c["entropy"]),
+        1e-5,
+        "entropy",
+    );
 }
 
 #[test]
@@ -109,8 +119,17 @@ fn ppo_clipped_objective_matches_sb3() {
         c["clip_range"].as_f64().unwrap() as f32,
     );
     let loss = host(s.loss)[0];
-    assert_close(&[loss], &[c["policy_loss"].as_f64().unwrap() as f32], 1e-5, "policy_loss");
+    assert_close(
+        &[loss],
+        &[c["policy_loss"].as_f64().unwrap() as f32],
+        1e-5,
+        "policy_loss",
+    );
     assert_eq!(s.clip_fraction, c["clip_fraction"].as_f64().unwrap());
     let kl = c["approx_kl"].as_f64().unwrap();
-    assert!((s.approx_kl - kl).abs() <= 1e-5 * kl.abs().max(1e-3), "{} vs {kl}", s.approx_kl);
+    assert!(
+        (s.approx_kl - kl).abs() <= 1e-5 * kl.abs().max(1e-3),
+        "{} vs {kl}",
+        s.approx_kl
+    );
 }

@@ -71,7 +71,11 @@ impl Metrics {
                 None => sums.push((name, *value, 1)),
             }
         }
-        Metrics(sums.into_iter().map(|(n, s, c)| (n, s / c as f64)).collect())
+        Metrics(
+            sums.into_iter()
+                .map(|(n, s, c)| (n, s / c as f64))
+                .collect(),
+        )
     }
 }
 

@@ -31,7 +31,11 @@ impl ConfigError {
 
 /// Checks `ok`, else an error for `key`.
 pub(crate) fn ensure(ok: bool, key: &str, message: &str) -> Result<(), ConfigError> {
-    if ok { Ok(()) } else { Err(ConfigError::new(key, message)) }
+    if ok {
+        Ok(())
+    } else {
+        Err(ConfigError::new(key, message))
+    }
 }
 
 /// The networks of an algorithm (every actor and critic shares the hidden sizes) and
@@ -64,14 +68,29 @@ impl NetConfig {
     /// Rejects empty or zero widths, bad rates, betas outside `[0, 1)`, `eps <= 0` and a
     /// non-positive clipping norm.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        ensure(!self.hidden.is_empty(), "hidden", "needs at least one hidden layer")?;
-        ensure(!self.hidden.contains(&0), "hidden", "widths must be positive")?;
-        ensure(self.lr.is_valid(), "lr", "learning rates must be finite and positive")?;
+        ensure(
+            !self.hidden.is_empty(),
+            "hidden",
+            "needs at least one hidden layer",
+        )?;
+        ensure(
+            !self.hidden.contains(&0),
+            "hidden",
+            "widths must be positive",
+        )?;
+        ensure(
+            self.lr.is_valid(),
+            "lr",
+            "learning rates must be finite and positive",
+        )?;
         let beta = |b: f32| (0.0..1.0).contains(&b);
         ensure(beta(self.adam.beta1), "adam.beta1", "must be in [0, 1)")?;
         ensure(beta(self.adam.beta2), "adam.beta2", "must be in [0, 1)")?;
         ensure(self.adam.eps > 0.0, "adam.eps", "must be positive")?;
-        let norm_ok = self.adam.max_grad_norm.is_none_or(|n| n.is_finite() && n > 0.0);
+        let norm_ok = self
+            .adam
+            .max_grad_norm
+            .is_none_or(|n| n.is_finite() && n > 0.0);
         ensure(norm_ok, "adam.max_grad_norm", "must be finite and positive")
     }
 }
@@ -115,9 +134,21 @@ impl OffPolicyConfig {
     pub fn validate(&self) -> Result<(), ConfigError> {
         ensure(self.buffer_size > 0, "buffer_size", "must be positive")?;
         ensure(self.batch_size > 0, "batch_size", "must be positive")?;
-        ensure(self.tau > 0.0 && self.tau <= 1.0, "tau", "must be in (0, 1]")?;
-        ensure((0.0..=1.0).contains(&self.gamma), "gamma", "must be in [0, 1]")?;
+        ensure(
+            self.tau > 0.0 && self.tau <= 1.0,
+            "tau",
+            "must be in (0, 1]",
+        )?;
+        ensure(
+            (0.0..=1.0).contains(&self.gamma),
+            "gamma",
+            "must be in [0, 1]",
+        )?;
         ensure(self.train_freq > 0, "train_freq", "must be positive")?;
-        ensure(self.gradient_steps > 0, "gradient_steps", "must be positive")
+        ensure(
+            self.gradient_steps > 0,
+            "gradient_steps",
+            "must be positive",
+        )
     }
 }

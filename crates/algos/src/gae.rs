@@ -20,8 +20,14 @@ pub fn gae(
 ) -> (Vec<f32>, Vec<f32>) {
     let n_envs = last_values.len();
     let n = rewards.len();
-    assert!(n_envs > 0 && n % n_envs == 0, "rollout arrays must be [n_steps, n_envs]");
-    assert_eq!((values.len(), episode_starts.len(), last_dones.len()), (n, n, n_envs));
+    assert!(
+        n_envs > 0 && n % n_envs == 0,
+        "rollout arrays must be [n_steps, n_envs]"
+    );
+    assert_eq!(
+        (values.len(), episode_starts.len(), last_dones.len()),
+        (n, n, n_envs)
+    );
     let mut advantages = vec![0.0; n];
     for e in 0..n_envs {
         let mut running = 0.0;
@@ -89,7 +95,15 @@ mod tests {
         let rewards = [1.0, 2.0, 1.0, 2.0, 1.0, 2.0];
         let values = [0.5, 0.1, 0.5, 0.2, 0.5, 0.3];
         let starts = [1.0, 1.0, 0.0, 1.0, 0.0, 0.0];
-        let (adv, ret) = gae(&rewards, &values, &starts, &[9.0, 0.4], &[1.0, 0.0], 0.9, 0.5);
+        let (adv, ret) = gae(
+            &rewards,
+            &values,
+            &starts,
+            &[9.0, 0.4],
+            &[1.0, 0.0],
+            0.9,
+            0.5,
+        );
         // Env 0 by hand (last step terminal, so last_value is ignored).
         let a2 = 1.0 - 0.5;
         let a1 = 1.0 + 0.9 * 0.5 - 0.5 + 0.45 * a2;

@@ -82,12 +82,28 @@ impl PpoConfig {
         ensure(self.n_steps > 0, "n_steps", "must be positive")?;
         ensure(self.batch_size > 1, "batch_size", "must be at least 2")?;
         ensure(self.n_epochs > 0, "n_epochs", "must be positive")?;
-        ensure((0.0..=1.0).contains(&self.gamma), "gamma", "must be in [0, 1]")?;
-        ensure((0.0..=1.0).contains(&self.gae_lambda), "gae_lambda", "must be in [0, 1]")?;
+        ensure(
+            (0.0..=1.0).contains(&self.gamma),
+            "gamma",
+            "must be in [0, 1]",
+        )?;
+        ensure(
+            (0.0..=1.0).contains(&self.gae_lambda),
+            "gae_lambda",
+            "must be in [0, 1]",
+        )?;
         ensure(self.clip_range > 0.0, "clip_range", "must be positive")?;
         ensure(self.ent_coef.is_finite(), "ent_coef", "must be finite")?;
-        ensure(self.vf_coef.is_finite() && self.vf_coef >= 0.0, "vf_coef", "must be >= 0")?;
-        ensure(self.target_kl.is_none_or(|k| k > 0.0), "target_kl", "must be positive")
+        ensure(
+            self.vf_coef.is_finite() && self.vf_coef >= 0.0,
+            "vf_coef",
+            "must be >= 0",
+        )?;
+        ensure(
+            self.target_kl.is_none_or(|k| k > 0.0),
+            "target_kl",
+            "must be positive",
+        )
     }
 }
 
@@ -95,9 +111,16 @@ impl PpoConfig {
 pub fn normalize_advantages(advantages: &[f32]) -> Vec<f32> {
     let n = advantages.len() as f64;
     let m = advantages.iter().map(|&a| f64::from(a)).sum::<f64>() / n;
-    let var = advantages.iter().map(|&a| (f64::from(a) - m).powi(2)).sum::<f64>() / (n - 1.0);
+    let var = advantages
+        .iter()
+        .map(|&a| (f64::from(a) - m).powi(2))
+        .sum::<f64>()
+        / (n - 1.0);
     let scale = var.sqrt() + 1e-8;
-    advantages.iter().map(|&a| ((f64::from(a) - m) / scale) as f32).collect()
+    advantages
+        .iter()
+        .map(|&a| ((f64::from(a) - m) / scale) as f32)
+        .collect()
 }
 
 /// The clipped surrogate and its diagnostics for one minibatch.
@@ -112,7 +135,12 @@ pub struct Surrogate {
 
 /// PPO's clipped objective; `log_prob` `[batch]` carries the gradient, `old_log_prob`
 /// and `advantages` `[batch]` are constants.
-pub fn clipped_surrogate(log_prob: Tensor<1>, old_log_prob: Tensor<1>, advantages: Tensor<1>, clip: f32) -> Surrogate {
+pub fn clipped_surrogate(
+    log_prob: Tensor<1>,
+    old_log_prob: Tensor<1>,
+    advantages: Tensor<1>,
+    clip: f32,
+) -> Surrogate {
     let log_ratio = log_prob - old_log_prob;
     let ratio = log_ratio.clone().exp();
     let unclipped = advantages.clone() * ratio.clone();
@@ -128,7 +156,11 @@ pub fn clipped_surrogate(log_prob: Tensor<1>, old_log_prob: Tensor<1>, advantage
         .map(|(r, l)| f64::from(r - 1.0 - l))
         .sum::<f64>()
         / n;
-    Surrogate { loss, clip_fraction, approx_kl }
+    Surrogate {
+        loss,
+        clip_fraction,
+        approx_kl,
+    }
 }
 
 /// PPO's policy and value networks, trained by one optimiser.
@@ -167,10 +199,23 @@ pub struct Ppo {
 impl Ppo {
     /// Networks drawn from `seed` in a fixed order (policy, value) on `device` (an
     /// autodiff device).
-    pub fn new(obs_dim: usize, action_dim: usize, config: PpoConfig, seed: u64, device: &Device) -> Self {
+    pub fn new(
+        obs_dim: usize,
+        action_dim: usize,
+        config: PpoConfig,
+        seed: u64,
+        device: &Device,
+    ) -> Self {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let n = &config.net;
-        let policy = GaussianPolicy::new(obs_dim, action_dim, &n.hidden, n.activation, &mut rng, device);
+        let policy = GaussianPolicy::new(
+            obs_dim,
+            action_dim,
+            &n.hidden,
+            n.activation,
+            &mut rng,
+            device,
+        );
         let value = ValueCritic::new(obs_dim, &n.hidden, n.activation, &mut rng, device);
         Self {
             obs_dim,
@@ -196,7 +241,12 @@ impl Ppo {
 
     fn values(&self, obs: &[f32]) -> Vec<f32> {
         let plain = self.device.clone().without_autodiff();
-        host(self.model.value.valid().forward(matrix(obs, self.obs_dim, &plain)))
+        host(
+            self.model
+                .value
+                .valid()
+                .forward(matrix(obs, self.obs_dim, &plain)),
+        )
     }
 
     fn train(&mut self, lr: f64) -> Metrics {
@@ -221,7 +271,10 @@ impl Ppo {
             indices.shuffle(&mut self.rng);
             for chunk in indices.chunks(c.batch_size) {
                 let gather = |src: &[f32], w: usize| -> Vec<f32> {
-                    chunk.iter().flat_map(|&i| src[i * w..(i + 1) * w].iter().copied()).collect()
+                    chunk
+                        .iter()
+                        .flat_map(|&i| src[i * w..(i + 1) * w].iter().copied())
+                        .collect()
                 };
                 let r = &self.rollout;
                 let obs = matrix(&gather(&r.obs, o), o, &dev);
@@ -235,8 +288,11 @@ impl Ppo {
 
                 let (log_prob, entropy) = self.model.policy.evaluate(obs.clone(), actions);
                 let values = self.model.value.forward(obs);
-                let surrogate = clipped_surrogate(log_prob, old_log_prob, vector(&adv, &dev), c.clip_range);
-                if c.target_kl.is_some_and(|kl| surrogate.approx_kl > 1.5 * f64::from(kl)) {
+                let surrogate =
+                    clipped_surrogate(log_prob, old_log_prob, vector(&adv, &dev), c.clip_range);
+                if c.target_kl
+                    .is_some_and(|kl| surrogate.approx_kl > 1.5 * f64::from(kl))
+                {
                     break 'epochs;
                 }
                 let value_loss = (batch_returns - values).square().mean();
@@ -245,8 +301,7 @@ impl Ppo {
                     + entropy_loss.mul_scalar(c.ent_coef)
                     + value_loss.clone().mul_scalar(c.vf_coef);
                 let mut grads = loss.backward();
-                let (model, report) = self.optim.step(self.model.clone(), &mut grads, lr);
-                self.model = model;
+                let report = self.optim.step_in_place(&mut self.model, &mut grads, lr);
                 rounds.push(Metrics(vec![
                     ("policy_loss", mean(surrogate.loss.inner())),
                     ("value_loss", mean(value_loss.inner())),
@@ -258,7 +313,10 @@ impl Ppo {
             }
         }
         let mut metrics = Metrics::mean(&rounds);
-        metrics.0.push(("explained_variance", explained_variance(&self.rollout.values, &returns)));
+        metrics.0.push((
+            "explained_variance",
+            explained_variance(&self.rollout.values, &returns),
+        ));
         self.rollout.clear();
         metrics
     }
@@ -273,7 +331,11 @@ pub fn explained_variance(values: &[f32], returns: &[f32]) -> f64 {
     };
     let residual = var(&mut values.iter().zip(returns).map(|(v, r)| f64::from(r - v)));
     let total = var(&mut returns.iter().map(|&r| f64::from(r)));
-    if total == 0.0 { f64::NAN } else { 1.0 - residual / total }
+    if total == 0.0 {
+        f64::NAN
+    } else {
+        1.0 - residual / total
+    }
 }
 
 impl Agent for Ppo {
@@ -294,7 +356,11 @@ impl Agent for Ppo {
             return host(mean_t.clamp(-1.0, 1.0));
         }
         let n = obs.len() / self.obs_dim;
-        let noise = matrix(&standard_normal(n, self.action_dim, &mut self.rng), self.action_dim, &plain);
+        let noise = matrix(
+            &standard_normal(n, self.action_dim, &mut self.rng),
+            self.action_dim,
+            &plain,
+        );
         let raw = mean_t.clone() + log_std.clone().exp() * noise;
         let log_probs = host(diag_gaussian_log_prob(mean_t, log_std, raw.clone()));
         let actions = host(raw);
@@ -308,15 +374,23 @@ impl Agent for Ppo {
     }
 
     fn observe(&mut self, step: &Experience<'_>) {
-        let pending = self.pending.take().expect("observe follows act(.., Explore)");
+        let pending = self
+            .pending
+            .take()
+            .expect("observe follows act(.., Explore)");
         let (n, o) = (step.len(), self.obs_dim);
         if self.episode_starts.len() != n {
             self.episode_starts = vec![1.0; n];
         }
         let mut rewards = step.rewards.to_vec();
-        let cut: Vec<usize> = (0..n).filter(|&i| step.truncated[i] && !step.terminated[i]).collect();
+        let cut: Vec<usize> = (0..n)
+            .filter(|&i| step.truncated[i] && !step.terminated[i])
+            .collect();
         if !cut.is_empty() {
-            let finals: Vec<f32> = cut.iter().flat_map(|&i| step.reached(i, o).iter().copied()).collect();
+            let finals: Vec<f32> = cut
+                .iter()
+                .flat_map(|&i| step.reached(i, o).iter().copied())
+                .collect();
             for (&i, v) in cut.iter().zip(self.values(&finals)) {
                 rewards[i] += self.config.gamma * v;
             }
@@ -329,7 +403,13 @@ impl Agent for Ppo {
         r.values.extend_from_slice(&pending.values);
         r.log_probs.extend_from_slice(&pending.log_probs);
         let dones: Vec<f32> = (0..n)
-            .map(|i| if step.terminated[i] || step.truncated[i] { 1.0 } else { 0.0 })
+            .map(|i| {
+                if step.terminated[i] || step.truncated[i] {
+                    1.0
+                } else {
+                    0.0
+                }
+            })
             .collect();
         self.episode_starts = dones.clone();
         self.last_dones = dones;

@@ -112,9 +112,13 @@ impl ReplayBuffer {
         for _ in 0..batch_size {
             let i = rng.random_range(0..self.len);
             batch.obs.extend_from_slice(&self.obs[i * o..(i + 1) * o]);
-            batch.actions.extend_from_slice(&self.actions[i * a..(i + 1) * a]);
+            batch
+                .actions
+                .extend_from_slice(&self.actions[i * a..(i + 1) * a]);
             batch.rewards.push(self.rewards[i]);
-            batch.next_obs.extend_from_slice(&self.next_obs[i * o..(i + 1) * o]);
+            batch
+                .next_obs
+                .extend_from_slice(&self.next_obs[i * o..(i + 1) * o]);
             let done = self.terminated[i] && !self.timeouts[i];
             batch.dones.push(if done { 1.0 } else { 0.0 });
         }
@@ -130,7 +134,14 @@ mod tests {
 
     fn row(buffer: &mut ReplayBuffer, k: usize, terminated: bool, timeout: bool) {
         let x = k as f32;
-        buffer.push(&[x, -x], &[x / 10.0], x, &[x + 1.0, -x - 1.0], terminated, timeout);
+        buffer.push(
+            &[x, -x],
+            &[x / 10.0],
+            x,
+            &[x + 1.0, -x - 1.0],
+            terminated,
+            timeout,
+        );
     }
 
     #[test]
@@ -170,7 +181,10 @@ mod tests {
             counts[*r as usize] += 1;
         }
         // 2000 expected per row; 5 sigma is about 212.
-        assert!(counts.iter().all(|&c| (1788..=2212).contains(&c)), "{counts:?}");
+        assert!(
+            counts.iter().all(|&c| (1788..=2212).contains(&c)),
+            "{counts:?}"
+        );
     }
 
     #[test]

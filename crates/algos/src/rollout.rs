@@ -81,7 +81,11 @@ impl<E: Env> Collector<E> {
 
 /// Plays one deterministic episode of `env` from `seed` and returns it with the last
 /// step's info.
-pub fn play_episode<E: Env>(agent: &mut dyn Agent, env: &mut E, seed: u64) -> Result<(Episode, E::Info), EnvError> {
+pub fn play_episode<E: Env>(
+    agent: &mut dyn Agent,
+    env: &mut E,
+    seed: u64,
+) -> Result<(Episode, E::Info), EnvError> {
     let mut obs = vec![0.0; env.obs_dim()];
     env.reset_into(Some(seed), &mut obs);
     let mut episode = Episode { ret: 0.0, len: 0 };

@@ -14,9 +14,9 @@ use crate::config::{ConfigError, NetConfig, OffPolicyConfig, ensure};
 use crate::off_policy::{OffPolicy, OffPolicyLearner, bellman_target};
 use crate::replay::ReplayBatch;
 use crate::tensors::{host, matrix, mean, standard_normal, vector};
+use burn::module::{Module, Param};
 use foosball_nets::store::{load_module, save_module};
 use foosball_nets::{Adam, Device, SquashedGaussianActor, Tensor, TwinQ, polyak_update};
-use burn::module::{Module, Param};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::path::Path;
@@ -53,10 +53,24 @@ impl SacConfig {
     /// Rejects invalid settings, naming the key.
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.net.validate().map_err(|e| e.under("net"))?;
-        self.off_policy.validate().map_err(|e| e.under("off_policy"))?;
-        ensure(self.init_alpha > 0.0 && self.init_alpha.is_finite(), "init_alpha", "must be finite and positive")?;
-        ensure(self.target_entropy.is_none_or(f32::is_finite), "target_entropy", "must be finite")?;
-        ensure(self.target_update_interval > 0, "target_update_interval", "must be positive")
+        self.off_policy
+            .validate()
+            .map_err(|e| e.under("off_policy"))?;
+        ensure(
+            self.init_alpha > 0.0 && self.init_alpha.is_finite(),
+            "init_alpha",
+            "must be finite and positive",
+        )?;
+        ensure(
+            self.target_entropy.is_none_or(f32::is_finite),
+            "target_entropy",
+            "must be finite",
+        )?;
+        ensure(
+            self.target_update_interval > 0,
+            "target_update_interval",
+            "must be positive",
+        )
     }
 }
 
@@ -68,8 +82,13 @@ pub struct Temperature {
 
 impl Temperature {
     fn new(alpha: f32, device: &Device) -> Self {
-        let log_alpha = Tensor::from_data(foosball_nets::TensorData::new(vec![alpha.ln()], [1]), device);
-        Self { log_alpha: Param::from_tensor(log_alpha) }
+        let log_alpha = Tensor::from_data(
+            foosball_nets::TensorData::new(vec![alpha.ln()], [1]),
+            device,
+        );
+        Self {
+            log_alpha: Param::from_tensor(log_alpha),
+        }
     }
 
     /// `alpha = exp(log alpha)` on the host.
@@ -81,8 +100,14 @@ impl Temperature {
 /// `-mean(log_alpha * (log_prob + target_entropy))` with `log_prob` `[batch]` treated as a
 /// constant: its gradient raises `alpha` when the policy's entropy `-log pi` is below
 /// the target and lowers it otherwise.
-pub fn temperature_loss(log_alpha: Tensor<1>, log_prob: Tensor<1>, target_entropy: f32) -> Tensor<1> {
-    (log_alpha * log_prob.detach().add_scalar(target_entropy)).mean().neg()
+pub fn temperature_loss(
+    log_alpha: Tensor<1>,
+    log_prob: Tensor<1>,
+    target_entropy: f32,
+) -> Tensor<1> {
+    (log_alpha * log_prob.detach().add_scalar(target_entropy))
+        .mean()
+        .neg()
 }
 
 /// The soft target `r + gamma (1 - d) (min_q_next - alpha * log_prob_next)`, `[batch]`.
@@ -94,7 +119,12 @@ pub fn soft_target(
     alpha: f32,
     gamma: f32,
 ) -> Tensor<1> {
-    bellman_target(rewards, dones, min_q_next - log_prob_next.mul_scalar(alpha), gamma)
+    bellman_target(
+        rewards,
+        dones,
+        min_q_next - log_prob_next.mul_scalar(alpha),
+        gamma,
+    )
 }
 
 /// SAC's networks, optimisers and counters.
@@ -119,11 +149,31 @@ pub type SacAgent = OffPolicy<Sac>;
 impl Sac {
     /// Networks drawn from `seed` in a fixed order (actor, critic; the target is a copy)
     /// on `device` (an autodiff device).
-    pub fn agent(obs_dim: usize, action_dim: usize, config: SacConfig, seed: u64, device: &Device) -> SacAgent {
+    pub fn agent(
+        obs_dim: usize,
+        action_dim: usize,
+        config: SacConfig,
+        seed: u64,
+        device: &Device,
+    ) -> SacAgent {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let n = &config.net;
-        let actor = SquashedGaussianActor::new(obs_dim, action_dim, &n.hidden, n.activation, &mut rng, device);
-        let critic = TwinQ::new(obs_dim, action_dim, &n.hidden, n.activation, &mut rng, device);
+        let actor = SquashedGaussianActor::new(
+            obs_dim,
+            action_dim,
+            &n.hidden,
+            n.activation,
+            &mut rng,
+            device,
+        );
+        let critic = TwinQ::new(
+            obs_dim,
+            action_dim,
+            &n.hidden,
+            n.activation,
+            &mut rng,
+            device,
+        );
         let critic_target = critic.clone().no_grad();
         let adam = || Adam::new(n.adam.clone());
         let learner = Sac {
@@ -144,7 +194,9 @@ impl Sac {
     }
 
     fn target_entropy(&self) -> f32 {
-        self.config.target_entropy.unwrap_or(-(self.action_dim as f32))
+        self.config
+            .target_entropy
+            .unwrap_or(-(self.action_dim as f32))
     }
 
     /// The actor.
@@ -188,7 +240,11 @@ impl OffPolicyLearner for Sac {
             ActMode::Deterministic => actor.deterministic(obs),
             ActMode::Explore => {
                 let n = obs.dims()[0];
-                let noise = matrix(&standard_normal(n, self.action_dim, rng), self.action_dim, &device);
+                let noise = matrix(
+                    &standard_normal(n, self.action_dim, rng),
+                    self.action_dim,
+                    &device,
+                );
                 actor.sample(obs, noise).0
             }
         };
@@ -209,11 +265,15 @@ impl OffPolicyLearner for Sac {
 
         // 2. Temperature.
         let alpha = self.temperature.alpha();
-        let alpha_loss = temperature_loss(self.temperature.log_alpha.val(), log_prob.clone(), self.target_entropy());
+        let alpha_loss = temperature_loss(
+            self.temperature.log_alpha.val(),
+            log_prob.clone(),
+            self.target_entropy(),
+        );
         let alpha_loss_value = mean(alpha_loss.clone().inner());
         let mut grads = alpha_loss.backward();
-        let temperature = std::mem::replace(&mut self.temperature, Temperature::new(1.0, &dev));
-        self.temperature = self.temperature_optim.step(temperature, &mut grads, lr).0;
+        self.temperature_optim
+            .step_in_place(&mut self.temperature, &mut grads, lr);
 
         // 3. Critics.
         let next_obs = matrix(&batch.next_obs, o, &plain);
@@ -222,31 +282,40 @@ impl OffPolicyLearner for Sac {
         let min_q_next = self.critic_target.valid().min(next_obs, next_actions);
         let rewards = vector(&batch.rewards, &plain);
         let dones = vector(&batch.dones, &plain);
-        let target = soft_target(rewards, dones, min_q_next, next_log_prob, alpha, gamma).autodiff();
-        let (q1, q2) = self.critic.forward(obs.clone(), matrix(&batch.actions, a, &dev));
+        let target =
+            soft_target(rewards, dones, min_q_next, next_log_prob, alpha, gamma).autodiff();
+        let (q1, q2) = self
+            .critic
+            .forward(obs.clone(), matrix(&batch.actions, a, &dev));
         let critic_loss = ((q1.clone() - target.clone()).square().mean()
             + (q2 - target).square().mean())
         .mul_scalar(0.5);
         let critic_loss_value = mean(critic_loss.clone().inner());
         let mut grads = critic_loss.backward();
-        let critic = std::mem::replace(&mut self.critic, self.critic_target.clone());
-        let (critic, critic_report) = self.critic_optim.step(critic, &mut grads, lr);
-        self.critic = critic;
+        let critic_report = self
+            .critic_optim
+            .step_in_place(&mut self.critic, &mut grads, lr);
 
         // 4. Actor, against the updated critics (their parameters frozen).
         let min_q_pi = self.critic.clone().no_grad().min(obs, actions_pi);
         let actor_loss = (log_prob.clone().mul_scalar(alpha) - min_q_pi).mean();
         let actor_loss_value = mean(actor_loss.clone().inner());
         let mut grads = actor_loss.backward();
-        let actor = self.actor.clone();
-        let (actor, actor_report) = self.actor_optim.step(actor, &mut grads, lr);
-        self.actor = actor;
+        let actor_report = self
+            .actor_optim
+            .step_in_place(&mut self.actor, &mut grads, lr);
 
         // 5. Targets.
         self.gradient_steps += 1;
-        if self.gradient_steps.is_multiple_of(self.config.target_update_interval) {
-            let target = std::mem::replace(&mut self.critic_target, self.critic.clone());
-            self.critic_target = polyak_update(target, &self.critic, self.config.off_policy.tau);
+        if self
+            .gradient_steps
+            .is_multiple_of(self.config.target_update_interval)
+        {
+            polyak_update(
+                &mut self.critic_target,
+                &self.critic,
+                self.config.off_policy.tau,
+            );
         }
 
         Metrics(vec![
@@ -272,7 +341,8 @@ impl OffPolicyLearner for Sac {
     fn load(&mut self, dir: &Path) -> Result<(), AgentError> {
         self.actor = load_module(self.actor.clone(), &dir.join("actor.bpk"))?;
         self.critic = load_module(self.critic.clone(), &dir.join("critic.bpk"))?;
-        self.critic_target = load_module(self.critic_target.clone(), &dir.join("critic_target.bpk"))?;
+        self.critic_target =
+            load_module(self.critic_target.clone(), &dir.join("critic_target.bpk"))?;
         self.temperature = load_module(self.temperature.clone(), &dir.join("temperature.bpk"))?;
         Ok(())
     }

@@ -48,7 +48,10 @@ mod tests {
 
     #[test]
     fn linear_goes_from_start_to_end() {
-        let s = LrSchedule::Linear { start: 1e-3, end: 1e-4 };
+        let s = LrSchedule::Linear {
+            start: 1e-3,
+            end: 1e-4,
+        };
         assert_eq!(s.at(1.0), 1e-3);
         assert_eq!(s.at(0.0), 1e-4);
         assert!((s.at(0.5) - 5.5e-4).abs() < 1e-12);

@@ -57,18 +57,36 @@ impl Td3Config {
     /// Rejects invalid settings, naming the key.
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.net.validate().map_err(|e| e.under("net"))?;
-        self.off_policy.validate().map_err(|e| e.under("off_policy"))?;
+        self.off_policy
+            .validate()
+            .map_err(|e| e.under("off_policy"))?;
         ensure(self.policy_delay > 0, "policy_delay", "must be positive")?;
         let non_negative = |x: f32| x.is_finite() && x >= 0.0;
-        ensure(non_negative(self.target_policy_noise), "target_policy_noise", "must be finite and >= 0")?;
-        ensure(non_negative(self.target_noise_clip), "target_noise_clip", "must be finite and >= 0")?;
-        ensure(non_negative(self.action_noise), "action_noise", "must be finite and >= 0")
+        ensure(
+            non_negative(self.target_policy_noise),
+            "target_policy_noise",
+            "must be finite and >= 0",
+        )?;
+        ensure(
+            non_negative(self.target_noise_clip),
+            "target_noise_clip",
+            "must be finite and >= 0",
+        )?;
+        ensure(
+            non_negative(self.action_noise),
+            "action_noise",
+            "must be finite and >= 0",
+        )
     }
 }
 
 /// Target policy smoothing: `clip(next_actions + clip(noise, -clip, clip), -1, 1)`,
 /// element by element, `[batch, action_dim]`.
-pub fn smoothed_target_actions(next_actions: Tensor<2>, noise: Tensor<2>, noise_clip: f32) -> Tensor<2> {
+pub fn smoothed_target_actions(
+    next_actions: Tensor<2>,
+    noise: Tensor<2>,
+    noise_clip: f32,
+) -> Tensor<2> {
     (next_actions + noise.clamp(-noise_clip, noise_clip)).clamp(-1.0, 1.0)
 }
 
@@ -94,11 +112,31 @@ pub type Td3Agent = OffPolicy<Td3>;
 impl Td3 {
     /// Networks drawn from `seed` in a fixed order (actor, critic; targets are copies)
     /// on `device` (an autodiff device).
-    pub fn agent(obs_dim: usize, action_dim: usize, config: Td3Config, seed: u64, device: &Device) -> Td3Agent {
+    pub fn agent(
+        obs_dim: usize,
+        action_dim: usize,
+        config: Td3Config,
+        seed: u64,
+        device: &Device,
+    ) -> Td3Agent {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let n = &config.net;
-        let actor = DeterministicActor::new(obs_dim, action_dim, &n.hidden, n.activation, &mut rng, device);
-        let critic = TwinQ::new(obs_dim, action_dim, &n.hidden, n.activation, &mut rng, device);
+        let actor = DeterministicActor::new(
+            obs_dim,
+            action_dim,
+            &n.hidden,
+            n.activation,
+            &mut rng,
+            device,
+        );
+        let critic = TwinQ::new(
+            obs_dim,
+            action_dim,
+            &n.hidden,
+            n.activation,
+            &mut rng,
+            device,
+        );
         let learner = Td3 {
             obs_dim,
             action_dim,
@@ -146,7 +184,11 @@ impl OffPolicyLearner for Td3 {
 
     fn policy_act(&mut self, obs: &[f32], mode: ActMode, rng: &mut ChaCha8Rng) -> Vec<f32> {
         let device = self.device.clone().without_autodiff();
-        let mut actions = host(self.actor.valid().forward(matrix(obs, self.obs_dim, &device)));
+        let mut actions = host(
+            self.actor
+                .valid()
+                .forward(matrix(obs, self.obs_dim, &device)),
+        );
         let sigma = self.config.action_noise;
         if mode == ActMode::Explore && sigma > 0.0 {
             let noise = standard_normal(actions.len(), 1, rng);
@@ -166,7 +208,10 @@ impl OffPolicyLearner for Td3 {
 
         // 1-2. Critics against the smoothed target.
         let next_obs = matrix(&batch.next_obs, o, &plain);
-        let noise: Vec<f32> = standard_normal(n, a, rng).iter().map(|e| e * c.target_policy_noise).collect();
+        let noise: Vec<f32> = standard_normal(n, a, rng)
+            .iter()
+            .map(|e| e * c.target_policy_noise)
+            .collect();
         let next_actions = smoothed_target_actions(
             self.actor_target.valid().forward(next_obs.clone()),
             matrix(&noise, a, &plain),
@@ -177,24 +222,34 @@ impl OffPolicyLearner for Td3 {
         let dones = vector(&batch.dones, &plain);
         let target = bellman_target(rewards, dones, min_q_next, c.off_policy.gamma).autodiff();
         let obs = matrix(&batch.obs, o, &dev);
-        let (q1, q2) = self.critic.forward(obs.clone(), matrix(&batch.actions, a, &dev));
-        let critic_loss = (q1.clone() - target.clone()).square().mean() + (q2 - target).square().mean();
+        let (q1, q2) = self
+            .critic
+            .forward(obs.clone(), matrix(&batch.actions, a, &dev));
+        let critic_loss =
+            (q1.clone() - target.clone()).square().mean() + (q2 - target).square().mean();
         let critic_loss_value = mean(critic_loss.clone().inner());
         let mut grads = critic_loss.backward();
-        let (critic, critic_report) = self.critic_optim.step(self.critic.clone(), &mut grads, lr);
-        self.critic = critic;
+        let critic_report = self
+            .critic_optim
+            .step_in_place(&mut self.critic, &mut grads, lr);
         self.gradient_steps += 1;
 
         // 3. Delayed actor and target updates.
         if self.gradient_steps.is_multiple_of(c.policy_delay) {
-            let q_pi = self.critic.q1.clone().no_grad().forward(obs.clone(), self.actor.forward(obs));
+            let q_pi = self
+                .critic
+                .q1
+                .clone()
+                .no_grad()
+                .forward(obs.clone(), self.actor.forward(obs));
             let actor_loss = q_pi.mean().neg();
             self.last_actor_loss = mean(actor_loss.clone().inner());
             let mut grads = actor_loss.backward();
-            self.actor = self.actor_optim.step(self.actor.clone(), &mut grads, lr).0;
+            self.actor_optim
+                .step_in_place(&mut self.actor, &mut grads, lr);
             let tau = c.off_policy.tau;
-            self.critic_target = polyak_update(self.critic_target.clone(), &self.critic, tau);
-            self.actor_target = polyak_update(self.actor_target.clone(), &self.actor, tau);
+            polyak_update(&mut self.critic_target, &self.critic, tau);
+            polyak_update(&mut self.actor_target, &self.actor, tau);
         }
 
         Metrics(vec![
@@ -217,7 +272,8 @@ impl OffPolicyLearner for Td3 {
         self.actor = load_module(self.actor.clone(), &dir.join("actor.bpk"))?;
         self.actor_target = load_module(self.actor_target.clone(), &dir.join("actor_target.bpk"))?;
         self.critic = load_module(self.critic.clone(), &dir.join("critic.bpk"))?;
-        self.critic_target = load_module(self.critic_target.clone(), &dir.join("critic_target.bpk"))?;
+        self.critic_target =
+            load_module(self.critic_target.clone(), &dir.join("critic_target.bpk"))?;
         Ok(())
     }
 }

@@ -6,7 +6,10 @@ use rand_distr::StandardNormal;
 
 /// `[data.len() / cols, cols]` tensor on `device`.
 pub fn matrix(data: &[f32], cols: usize, device: &Device) -> Tensor<2> {
-    Tensor::from_data(TensorData::new(data.to_vec(), [data.len() / cols, cols]), device)
+    Tensor::from_data(
+        TensorData::new(data.to_vec(), [data.len() / cols, cols]),
+        device,
+    )
 }
 
 /// `[data.len()]` tensor on `device`.
@@ -16,7 +19,9 @@ pub fn vector(data: &[f32], device: &Device) -> Tensor<1> {
 
 /// The tensor's values, row-major.
 pub fn host<const D: usize>(t: Tensor<D>) -> Vec<f32> {
-    t.into_data().try_into_vec::<f32>().expect("float tensors are f32")
+    t.into_data()
+        .try_into_vec::<f32>()
+        .expect("float tensors are f32")
 }
 
 /// The mean of the tensor's values, on the host.
@@ -26,5 +31,7 @@ pub fn mean(t: Tensor<1>) -> f64 {
 
 /// `rows * cols` standard-normal draws from `rng`, row-major.
 pub fn standard_normal(rows: usize, cols: usize, rng: &mut impl Rng) -> Vec<f32> {
-    (0..rows * cols).map(|_| rng.sample(StandardNormal)).collect()
+    (0..rows * cols)
+        .map(|_| rng.sample(StandardNormal))
+        .collect()
 }

@@ -1,6 +1,8 @@
 //! Policies: SAC's squashed Gaussian, TD3's deterministic tanh actor and PPO's Gaussian.
 
-use crate::distributions::{diag_gaussian_entropy, diag_gaussian_log_prob, squashed_gaussian_log_prob};
+use crate::distributions::{
+    diag_gaussian_entropy, diag_gaussian_log_prob, squashed_gaussian_log_prob,
+};
 use crate::mlp::{Activation, Mlp};
 use burn::module::{Module, Param};
 use burn::tensor::activation::tanh;
@@ -38,7 +40,9 @@ impl SquashedGaussianActor {
         let out = self.net.forward(obs);
         let action_dim = out.dims()[1] / 2;
         let mean = out.clone().narrow(1, 0, action_dim);
-        let log_std = out.narrow(1, action_dim, action_dim).clamp(LOG_STD_MIN, LOG_STD_MAX);
+        let log_std = out
+            .narrow(1, action_dim, action_dim)
+            .clamp(LOG_STD_MIN, LOG_STD_MAX);
         (mean, log_std)
     }
 

@@ -32,7 +32,12 @@ pub enum BackendError {
 
 impl Backend {
     /// All backends, in the order the default is chosen from.
-    pub const ALL: [Backend; 4] = [Backend::Cuda, Backend::Wgpu, Backend::Flex, Backend::Ndarray];
+    pub const ALL: [Backend; 4] = [
+        Backend::Cuda,
+        Backend::Wgpu,
+        Backend::Flex,
+        Backend::Ndarray,
+    ];
 
     /// The backend's name, as in configs and on the command line.
     pub fn name(self) -> &'static str {

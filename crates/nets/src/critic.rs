@@ -27,7 +27,9 @@ impl QNetwork {
 
     /// Values `[batch]`.
     pub fn forward(&self, obs: Tensor<2>, actions: Tensor<2>) -> Tensor<1> {
-        self.net.forward(Tensor::cat(vec![obs, actions], 1)).squeeze_dim(1)
+        self.net
+            .forward(Tensor::cat(vec![obs, actions], 1))
+            .squeeze_dim(1)
     }
 }
 

@@ -44,7 +44,12 @@ mod tests {
         let device = Backend::default_cpu().unwrap().device().unwrap();
         let draw = |seed| {
             let layer = linear(16, 8, &mut ChaCha8Rng::seed_from_u64(seed), &device);
-            layer.weight.val().into_data().try_into_vec::<f32>().unwrap()
+            layer
+                .weight
+                .val()
+                .into_data()
+                .try_into_vec::<f32>()
+                .unwrap()
         };
         let w = draw(1);
         assert_eq!(w.len(), 128);

@@ -11,6 +11,7 @@ pub mod actor;
 pub mod backend;
 pub mod critic;
 pub mod distributions;
+pub mod host;
 pub mod init;
 pub mod mlp;
 pub mod optim;

@@ -62,7 +62,11 @@ impl Mlp {
         let last = self.layers.len() - 1;
         self.layers.iter().enumerate().fold(x, |x, (i, layer)| {
             let y = layer.forward(x);
-            if i < last { self.activation.apply(y) } else { y }
+            if i < last {
+                self.activation.apply(y)
+            } else {
+                y
+            }
         })
     }
 
@@ -95,21 +99,33 @@ mod tests {
 
         let x = [0.5f32, -1.0, 2.0];
         let y = mlp
-            .forward(Tensor::from_data(TensorData::new(x.to_vec(), [1, 3]), &device))
+            .forward(Tensor::from_data(
+                TensorData::new(x.to_vec(), [1, 3]),
+                &device,
+            ))
             .into_data()
             .try_into_vec::<f32>()
             .unwrap();
 
         let mut h = x.to_vec();
         for (i, layer) in mlp.layers.iter().enumerate() {
-            let w = layer.weight.val().into_data().try_into_vec::<f32>().unwrap();
+            let w = layer
+                .weight
+                .val()
+                .into_data()
+                .try_into_vec::<f32>()
+                .unwrap();
             let b = layer.bias.as_ref().unwrap().val().into_data();
             let b = b.try_into_vec::<f32>().unwrap();
             let (d_in, d_out) = (h.len(), b.len());
             h = (0..d_out)
                 .map(|o| {
                     let z = b[o] + (0..d_in).map(|k| h[k] * w[k * d_out + o]).sum::<f32>();
-                    if i + 1 < mlp.layers.len() { z.max(0.0) } else { z }
+                    if i + 1 < mlp.layers.len() {
+                        z.max(0.0)
+                    } else {
+                        z
+                    }
                 })
                 .collect();
         }

@@ -4,9 +4,12 @@
 //! tensor on its own; the paper (SB3 on PyTorch) used `eps = 1e-8` and one norm over all
 //! of a network's parameters. Both are written out here.
 
-use crate::params::{flat_grads, map_flat_params};
+use crate::host::{CHUNK, host_data, is_host, sum_squares, update_in_place};
+use crate::params::{flat_grads, map_flat_params, take_module};
 use burn::module::Module;
+use burn::tensor::TensorData;
 use burn::tensor::{Gradients, Tensor};
+use rayon::prelude::*;
 
 /// Adam's hyper-parameters (the learning rate is given at each step, so that schedules
 /// live with the algorithms).
@@ -45,13 +48,85 @@ pub struct StepReport {
     pub applied: bool,
 }
 
+/// A parameter's first and second moments, where its backend keeps them.
+#[derive(Clone, Debug)]
+enum Moments {
+    /// Host vectors (CPU backends: fused update loop).
+    Host(Vec<f32>, Vec<f32>),
+    /// Device tensors (GPU backends: tensor ops).
+    Device(Tensor<1>, Tensor<1>),
+}
+
+/// A parameter's gradient, on the host or on the device.
+enum Grad {
+    Host(TensorData),
+    Device(Tensor<1>),
+}
+
+/// The scalars of one Adam step: `p -= step_size * m / (sqrt(v) / bias2_sqrt + eps)`
+/// after `m <- b1 m + (1 - b1) g`, `v <- b2 v + (1 - b2) g^2`, `g = scale * grad`;
+/// `step_size = lr / (1 - b1^t)`, `bias2_sqrt = sqrt(1 - b2^t)` (torch.optim.Adam).
+#[derive(Clone, Copy)]
+struct Update {
+    beta1: f32,
+    beta2: f32,
+    eps: f32,
+    step_size: f32,
+    bias2_sqrt: f32,
+    scale: f32,
+}
+
+impl Update {
+    fn host(self, p: &mut [f32], g: &[f32], m: &mut [f32], v: &mut [f32]) {
+        let Update {
+            beta1,
+            beta2,
+            eps,
+            step_size,
+            bias2_sqrt,
+            scale,
+        } = self;
+        p.par_chunks_mut(CHUNK)
+            .zip(g.par_chunks(CHUNK))
+            .zip(m.par_chunks_mut(CHUNK))
+            .zip(v.par_chunks_mut(CHUNK))
+            .for_each(|(((p, g), m), v)| {
+                for k in 0..p.len() {
+                    let g = g[k] * scale;
+                    m[k] = beta1 * m[k] + (1.0 - beta1) * g;
+                    v[k] = beta2 * v[k] + (1.0 - beta2) * g * g;
+                    p[k] -= step_size * m[k] / (v[k].sqrt() / bias2_sqrt + eps);
+                }
+            });
+    }
+
+    fn device(self, p: Tensor<1>, g: Tensor<1>, m: Tensor<1>, v: Tensor<1>) -> [Tensor<1>; 3] {
+        let Update {
+            beta1,
+            beta2,
+            eps,
+            step_size,
+            bias2_sqrt,
+            scale,
+        } = self;
+        let g = if scale < 1.0 { g.mul_scalar(scale) } else { g };
+        let m = m.mul_scalar(beta1) + g.clone().mul_scalar(1.0 - beta1);
+        let v = v.mul_scalar(beta2) + g.square().mul_scalar(1.0 - beta2);
+        let denom = v.clone().sqrt().div_scalar(bias2_sqrt).add_scalar(eps);
+        let p = p - m.clone().div(denom).mul_scalar(step_size);
+        [p, m, v]
+    }
+}
+
 /// Adam's state for one module: step count and per-parameter moments (flat, in the
-/// module's visiting order; created at the first step).
+/// module's visiting order; created at the first step). On CPU backends the update is
+/// one fused host loop per parameter, elsewhere tensor ops; the math is the same.
 #[derive(Clone, Debug)]
 pub struct Adam {
     config: AdamConfig,
     steps: u64,
-    moments: Vec<Option<(Tensor<1>, Tensor<1>)>>,
+    moments: Vec<Option<Moments>>,
+    host_fast_path: bool,
 }
 
 /// PyTorch's `clip_grad_norm_` factor: `min(1, max_norm / (norm + 1e-6))`.
@@ -66,7 +141,15 @@ impl Adam {
             config,
             steps: 0,
             moments: Vec::new(),
+            host_fast_path: true,
         }
+    }
+
+    /// The same optimiser doing its update with tensor ops even on a CPU backend (the GPU
+    /// path; slower on CPU, kept to check both paths agree).
+    pub fn without_host_fast_path(mut self) -> Self {
+        self.host_fast_path = false;
+        self
     }
 
     /// The hyper-parameters.
@@ -82,48 +165,126 @@ impl Adam {
     /// One update of `module`'s parameters from the gradients of a loss
     /// (`loss.backward()`), with learning rate `lr`. Gradients of parameters of other
     /// modules stay in `grads`.
-    pub fn step<M: Module>(&mut self, module: M, grads: &mut Gradients, lr: f64) -> (M, StepReport) {
+    pub fn step<M: Module>(
+        &mut self,
+        module: M,
+        grads: &mut Gradients,
+        lr: f64,
+    ) -> (M, StepReport) {
         let grads = flat_grads(&module, grads);
         if self.moments.is_empty() {
             self.moments = vec![None; grads.len()];
         }
-        assert_eq!(self.moments.len(), grads.len(), "Adam used with another module");
+        assert_eq!(
+            self.moments.len(),
+            grads.len(),
+            "Adam used with another module"
+        );
+        let host = self.host_fast_path
+            && grads
+                .iter()
+                .flatten()
+                .next()
+                .is_some_and(|g| is_host(&g.device()));
+        let mut grads: Vec<Option<Grad>> = grads
+            .into_iter()
+            .map(|g| {
+                g.map(|g| {
+                    if host {
+                        Grad::Host(host_data(g))
+                    } else {
+                        Grad::Device(g)
+                    }
+                })
+            })
+            .collect();
 
-        let squares: Vec<Tensor<1>> = grads.iter().flatten().map(|g| g.clone().square().sum()).collect();
-        let grad_norm = if squares.is_empty() {
-            0.0
-        } else {
-            Tensor::cat(squares, 0).sum().into_scalar::<f32>().sqrt()
-        };
+        let grad_norm = global_norm(&grads);
         if !grad_norm.is_finite() {
-            return (module, StepReport { grad_norm, applied: false });
+            return (
+                module,
+                StepReport {
+                    grad_norm,
+                    applied: false,
+                },
+            );
         }
-        let scale = clip_coefficient(grad_norm, self.config.max_grad_norm);
-
         self.steps += 1;
-        let AdamConfig { beta1, beta2, eps, .. } = self.config;
+        let AdamConfig {
+            beta1,
+            beta2,
+            eps,
+            max_grad_norm,
+        } = self.config;
         let t = self.steps as i32;
-        let bias1 = 1.0 - beta1.powi(t);
-        let bias2 = 1.0 - beta2.powi(t);
-        // p -= lr * (m / bias1) / (sqrt(v / bias2) + eps), folded as in torch.optim.Adam.
-        let step_size = lr as f32 / bias1;
-        let bias2_sqrt = bias2.sqrt();
+        let update = Update {
+            beta1,
+            beta2,
+            eps,
+            step_size: lr as f32 / (1.0 - beta1.powi(t)),
+            bias2_sqrt: (1.0 - beta2.powi(t)).sqrt(),
+            scale: clip_coefficient(grad_norm, max_grad_norm),
+        };
         let moments = &mut self.moments;
-        let module = map_flat_params(module, |i, p| {
-            let Some(g) = grads[i].clone() else { return p };
-            let g = if scale < 1.0 { g.mul_scalar(scale) } else { g };
-            let (m, v) = match moments[i].take() {
-                Some((m, v)) => (
-                    m.mul_scalar(beta1) + g.clone().mul_scalar(1.0 - beta1),
-                    v.mul_scalar(beta2) + g.square().mul_scalar(1.0 - beta2),
-                ),
-                None => (g.clone().mul_scalar(1.0 - beta1), g.square().mul_scalar(1.0 - beta2)),
-            };
-            let denom = v.clone().sqrt().div_scalar(bias2_sqrt).add_scalar(eps);
-            let p = p - m.clone().div(denom).mul_scalar(step_size);
-            moments[i] = Some((m, v));
-            p
+        let module = map_flat_params(module, |i, p| match grads[i].take() {
+            None => p,
+            Some(Grad::Host(g)) => {
+                let g = g.as_slice::<f32>().expect("float gradients are f32");
+                let (mut m, mut v) = match moments[i].take() {
+                    Some(Moments::Host(m, v)) => (m, v),
+                    _ => (vec![0.0; g.len()], vec![0.0; g.len()]),
+                };
+                let p = update_in_place(p, |p| update.host(p, g, &mut m, &mut v));
+                moments[i] = Some(Moments::Host(m, v));
+                p
+            }
+            Some(Grad::Device(g)) => {
+                let (m, v) = match moments[i].take() {
+                    Some(Moments::Device(m, v)) => (m, v),
+                    _ => (g.zeros_like(), g.zeros_like()),
+                };
+                let [p, m, v] = update.device(p, g, m, v);
+                moments[i] = Some(Moments::Device(m, v));
+                p
+            }
         });
-        (module, StepReport { grad_norm, applied: true })
+        (
+            module,
+            StepReport {
+                grad_norm,
+                applied: true,
+            },
+        )
     }
+
+    /// [`Adam::step`] on the module in `slot`, moved out first (see
+    /// [`take_module`]) so a CPU backend updates its parameters without copying them.
+    pub fn step_in_place<M: Module>(
+        &mut self,
+        slot: &mut M,
+        grads: &mut Gradients,
+        lr: f64,
+    ) -> StepReport {
+        let (module, report) = self.step(take_module(slot), grads, lr);
+        *slot = module;
+        report
+    }
+}
+
+/// The L2 norm of all gradients together.
+fn global_norm(grads: &[Option<Grad>]) -> f32 {
+    let mut host = 0.0f64;
+    let mut device = Vec::new();
+    for g in grads.iter().flatten() {
+        match g {
+            Grad::Host(g) => {
+                host += sum_squares(g.as_slice::<f32>().expect("float gradients are f32"))
+            }
+            Grad::Device(g) => device.push(g.clone().square().sum()),
+        }
+    }
+    if !device.is_empty() {
+        host += f64::from(Tensor::cat(device, 0).sum().into_scalar::<f32>());
+    }
+    host.sqrt() as f32
 }

@@ -16,9 +16,15 @@ pub struct StoreError {
 /// Writes `module`'s parameters to `path` through a temporary file renamed into place,
 /// so an interrupted write leaves the previous file intact.
 pub fn save_module<M: Module>(module: &M, path: &Path) -> Result<(), StoreError> {
-    let error = |message: String| StoreError { path: path.to_path_buf(), message };
+    let error = |message: String| StoreError {
+        path: path.to_path_buf(),
+        message,
+    };
     let tmp = path.with_extension("tmp");
-    module.clone().save_file(&tmp).map_err(|e| error(e.to_string()))?;
+    module
+        .clone()
+        .save_file(&tmp)
+        .map_err(|e| error(e.to_string()))?;
     std::fs::rename(&tmp, path).map_err(|e| error(e.to_string()))
 }
 

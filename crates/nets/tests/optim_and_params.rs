@@ -4,7 +4,9 @@
 use burn::module::{Module, Param};
 use foosball_nets::params::host_params;
 use foosball_nets::store::{load_module, save_module};
-use foosball_nets::{Adam, AdamConfig, Backend, Device, Mlp, Activation, Tensor, TensorData, polyak_update};
+use foosball_nets::{
+    Activation, Adam, AdamConfig, Backend, Device, Mlp, Tensor, TensorData, polyak_update,
+};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
@@ -21,7 +23,10 @@ fn device() -> Device {
 fn two_params(a: [f32; 2], b: [f32; 4], device: &Device) -> TwoParams {
     TwoParams {
         a: Param::from_tensor(Tensor::from_data(TensorData::new(a.to_vec(), [2]), device)),
-        b: Param::from_tensor(Tensor::from_data(TensorData::new(b.to_vec(), [2, 2]), device)),
+        b: Param::from_tensor(Tensor::from_data(
+            TensorData::new(b.to_vec(), [2, 2]),
+            device,
+        )),
     }
 }
 
@@ -30,7 +35,10 @@ const W: [f64; 6] = [1.0, -2.0, 0.5, 3.0, -1.0, 4.0];
 
 fn loss(m: &TwoParams, device: &Device) -> Tensor<1> {
     let wa = Tensor::<1>::from_data(TensorData::new(vec![1.0f32, -2.0], [2]), device);
-    let wb = Tensor::<2>::from_data(TensorData::new(vec![0.5f32, 3.0, -1.0, 4.0], [2, 2]), device);
+    let wb = Tensor::<2>::from_data(
+        TensorData::new(vec![0.5f32, 3.0, -1.0, 4.0], [2, 2]),
+        device,
+    );
     let la = (m.a.val().square() * wa).sum();
     let lb = (m.b.val().square() * wb).sum();
     (la + lb).mul_scalar(0.5)
@@ -60,9 +68,29 @@ fn reference(mut p: Vec<f64>, steps: usize, lr: f64, max_norm: Option<f64>) -> V
 }
 
 fn run(steps: usize, lr: f64, max_grad_norm: Option<f32>) -> (Vec<f32>, Vec<f32>) {
+    let (host, norms) = run_path(steps, lr, max_grad_norm, true);
+    let (tensor_ops, _) = run_path(steps, lr, max_grad_norm, false);
+    for (a, b) in host.iter().zip(&tensor_ops) {
+        assert!(
+            (a - b).abs() < 1e-6,
+            "host {host:?} vs tensor ops {tensor_ops:?}"
+        );
+    }
+    (host, norms)
+}
+
+fn run_path(steps: usize, lr: f64, max_grad_norm: Option<f32>, host: bool) -> (Vec<f32>, Vec<f32>) {
     let device = device();
     let mut module = two_params([0.3, -1.5], [2.0, 0.1, -0.7, 1.2], &device);
-    let mut adam = Adam::new(AdamConfig { max_grad_norm, ..AdamConfig::default() });
+    let adam = Adam::new(AdamConfig {
+        max_grad_norm,
+        ..AdamConfig::default()
+    });
+    let mut adam = if host {
+        adam
+    } else {
+        adam.without_host_fast_path()
+    };
     let mut norms = Vec::new();
     for _ in 0..steps {
         let mut grads = loss(&module, &device).backward();
@@ -77,7 +105,10 @@ fn run(steps: usize, lr: f64, max_grad_norm: Option<f32>) -> (Vec<f32>, Vec<f32>
 
 fn assert_close(got: &[f32], want: &[f64], tol: f64) {
     for (g, w) in got.iter().zip(want) {
-        assert!((f64::from(*g) - w).abs() <= tol * w.abs().max(1.0), "{got:?} vs {want:?}");
+        assert!(
+            (f64::from(*g) - w).abs() <= tol * w.abs().max(1.0),
+            "{got:?} vs {want:?}"
+        );
     }
 }
 
@@ -87,7 +118,12 @@ fn adam_matches_pytorchs_update_with_eps_1e_8() {
     let (got, norms) = run(5, 0.1, None);
     assert_close(&got, &reference(start.clone(), 5, 0.1, None), 1e-5);
     // First gradient is w * p0; its norm is reported before any clipping.
-    let g0: f64 = start.iter().zip(W).map(|(p, w)| (p * w).powi(2)).sum::<f64>().sqrt();
+    let g0: f64 = start
+        .iter()
+        .zip(W)
+        .map(|(p, w)| (p * w).powi(2))
+        .sum::<f64>()
+        .sqrt();
     assert!((f64::from(norms[0]) - g0).abs() < 1e-5);
 }
 
@@ -100,7 +136,11 @@ fn clipping_uses_one_norm_over_all_parameters() {
     let (got, _) = run(3, 0.05, Some(0.5));
     assert_close(&got, &reference(start.clone(), 3, 0.05, Some(0.5)), 1e-5);
     let unclipped = reference(start, 3, 0.05, None);
-    assert!(got.iter().zip(&unclipped).any(|(g, u)| (f64::from(*g) - u).abs() > 1e-4));
+    assert!(
+        got.iter()
+            .zip(&unclipped)
+            .any(|(g, u)| (f64::from(*g) - u).abs() > 1e-4)
+    );
 }
 
 #[test]
@@ -121,8 +161,8 @@ fn a_non_finite_gradient_leaves_the_module_and_moments_alone() {
 fn polyak_moves_the_target_by_tau() {
     let device = device();
     let online = two_params([1.0, 2.0], [3.0, 4.0, 5.0, 6.0], &device);
-    let target = two_params([0.0; 2], [10.0; 4], &device);
-    let target = polyak_update(target, &online, 0.25);
+    let mut target = two_params([0.0; 2], [10.0; 4], &device);
+    polyak_update(&mut target, &online, 0.25);
     let p = host_params(&target);
     assert_eq!(p[0], vec![0.25, 0.5]);
     assert_eq!(p[1], vec![8.25, 8.5, 8.75, 9.0]);
@@ -136,14 +176,35 @@ fn records_round_trip_through_a_file() {
     let dir = std::env::temp_dir().join(format!("foosball-nets-store-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("mlp.bpk");
-    let saved = Mlp::new(5, &[7, 3], 2, Activation::Relu, &mut ChaCha8Rng::seed_from_u64(1), &device);
+    let saved = Mlp::new(
+        5,
+        &[7, 3],
+        2,
+        Activation::Relu,
+        &mut ChaCha8Rng::seed_from_u64(1),
+        &device,
+    );
     save_module(&saved, &path).unwrap();
-    let other = Mlp::new(5, &[7, 3], 2, Activation::Relu, &mut ChaCha8Rng::seed_from_u64(2), &device);
+    let other = Mlp::new(
+        5,
+        &[7, 3],
+        2,
+        Activation::Relu,
+        &mut ChaCha8Rng::seed_from_u64(2),
+        &device,
+    );
     assert_ne!(host_params(&other), host_params(&saved));
     let loaded = load_module(other, &path).unwrap();
     assert_eq!(host_params(&loaded), host_params(&saved));
 
-    let wrong_shape = Mlp::new(5, &[8, 3], 2, Activation::Relu, &mut ChaCha8Rng::seed_from_u64(2), &device);
+    let wrong_shape = Mlp::new(
+        5,
+        &[8, 3],
+        2,
+        Activation::Relu,
+        &mut ChaCha8Rng::seed_from_u64(2),
+        &device,
+    );
     let err = load_module(wrong_shape, &path).unwrap_err();
     assert!(err.to_string().contains("mlp.bpk"), "{err}");
     let missing = load_module(saved, &dir.join("missing.bpk")).unwrap_err();
