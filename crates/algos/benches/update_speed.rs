@@ -44,13 +44,15 @@ fn feed(agent: &mut dyn Agent, n: usize, rng: &mut ChaCha8Rng) {
     }
 }
 
-/// Median seconds of `reps` calls of `f` after one warm-up call.
-fn median(reps: usize, mut f: impl FnMut()) -> f64 {
-    f();
+/// Median of `reps` samples after one warm-up; each sample runs `prepare` untimed, then
+/// times `work`.
+fn median<T>(reps: usize, mut prepare: impl FnMut() -> T, mut work: impl FnMut(T)) -> f64 {
+    work(prepare());
     let mut times: Vec<f64> = (0..reps)
         .map(|_| {
+            let input = prepare();
             let t = Instant::now();
-            f();
+            work(input);
             t.elapsed().as_secs_f64()
         })
         .collect();
@@ -58,12 +60,22 @@ fn median(reps: usize, mut f: impl FnMut()) -> f64 {
     times[times.len() / 2]
 }
 
-fn off_policy_update(agent: &mut dyn Agent, reps: usize, rng: &mut ChaCha8Rng) -> f64 {
+/// Seconds per gradient step, timed over `per_sample` consecutive updates (TD3 alternates
+/// critic-only and delayed actor steps, so it is timed in pairs).
+fn off_policy_update(agent: &mut dyn Agent, reps: usize, per_sample: usize, rng: &mut ChaCha8Rng) -> f64 {
     feed(agent, BATCH + 1, rng);
-    median(reps, || {
-        feed(agent, 1, rng);
-        assert!(agent.update(1.0).is_some());
-    })
+    let cell = std::cell::RefCell::new((agent, rng));
+    median(
+        reps,
+        || (),
+        |()| {
+            let (agent, rng) = &mut *cell.borrow_mut();
+            for _ in 0..per_sample {
+                feed(*agent, 1, rng);
+                assert!(agent.update(1.0).is_some());
+            }
+        },
+    ) / per_sample as f64
 }
 
 fn bench_size(hidden: &[usize], reps: usize, device: &Device) {
@@ -75,7 +87,7 @@ fn bench_size(hidden: &[usize], reps: usize, device: &Device) {
     sac.net.adam.max_grad_norm = Some(10.0);
     sac.off_policy.learning_starts = BATCH as u64;
     sac.off_policy.buffer_size = 10_000;
-    let t = off_policy_update(&mut Sac::agent(OBS, ACT, sac, 1, device), reps, &mut rng);
+    let t = off_policy_update(&mut Sac::agent(OBS, ACT, sac, 1, device), reps, 1, &mut rng);
     println!("{label:>8}  SAC update  {:>9.1} ms", t * 1e3);
 
     let mut td3 = Td3Config::default();
@@ -83,13 +95,9 @@ fn bench_size(hidden: &[usize], reps: usize, device: &Device) {
     td3.net.adam.max_grad_norm = Some(10.0);
     td3.off_policy.learning_starts = BATCH as u64;
     td3.off_policy.buffer_size = 10_000;
-    // Two consecutive calls: one critic-only step and one delayed actor + target step.
     let mut agent = Td3::agent(OBS, ACT, td3, 1, device);
-    let t = off_policy_update(&mut agent, reps, &mut rng);
-    println!(
-        "{label:>8}  TD3 update  {:>9.1} ms (mean of critic-only and delayed steps: median of both)",
-        t * 1e3
-    );
+    let t = off_policy_update(&mut agent, reps, 2, &mut rng);
+    println!("{label:>8}  TD3 update  {:>9.1} ms (mean over a critic-only and a delayed step)", t * 1e3);
 
     let mut ppo = PpoConfig {
         n_steps: BATCH,
@@ -99,18 +107,17 @@ fn bench_size(hidden: &[usize], reps: usize, device: &Device) {
     };
     ppo.net.hidden = hidden.to_vec();
     ppo.net.activation = Activation::Relu;
-    let mut agent = Ppo::new(OBS, ACT, ppo, 1, device);
-    let t = median(reps, || {
-        feed(&mut agent, BATCH, &mut rng);
-        assert!(agent.update(1.0).is_some());
-    });
-    // The rollout's forward passes (act) are inside `feed`; time them apart.
-    let act = median(reps, || {
-        let obs = random(OBS, &mut rng);
-        agent.act(&obs, ActMode::Deterministic);
-    });
+    let agent = std::cell::RefCell::new(Ppo::new(OBS, ACT, ppo, 1, device));
+    let t = median(
+        reps,
+        || feed(&mut *agent.borrow_mut(), BATCH, &mut rng),
+        |()| assert!(agent.borrow_mut().update(1.0).is_some()),
+    );
+    let mut agent = agent.into_inner();
+    let obs = random(OBS, &mut ChaCha8Rng::seed_from_u64(1));
+    let act = median(reps, || (), |()| drop(agent.act(&obs, ActMode::Deterministic)));
     println!(
-        "{label:>8}  PPO rollout of {BATCH} + 1 gradient step {:>9.1} ms (single-obs act {:.2} ms)",
+        "{label:>8}  PPO update  {:>9.1} ms (values of {BATCH} rows, GAE, 1 gradient step); act on 1 obs {:.2} ms",
         t * 1e3,
         act * 1e3
     );
@@ -120,24 +127,25 @@ fn bench_size(hidden: &[usize], reps: usize, device: &Device) {
 fn breakdown(hidden: &[usize], reps: usize, device: &Device) {
     let mut rng = ChaCha8Rng::seed_from_u64(0);
     let label = format!("{}x{}", hidden[0], hidden.len());
-    let mut net = Mlp::new(OBS + ACT, hidden, 1, Activation::Relu, &mut rng, device);
+    let net = Mlp::new(OBS + ACT, hidden, 1, Activation::Relu, &mut rng, device);
     let x = Tensor::<2>::from_data(
         TensorData::new(random(BATCH * (OBS + ACT), &mut rng), [BATCH, OBS + ACT]),
         device,
     );
+    let loss = |net: &Mlp| net.forward(x.clone()).square().mean();
+    let fb = median(reps, || loss(&net), |l| drop(l.backward()));
     let mut adam = Adam::new(AdamConfig::default());
-    let mut grads = None;
-    let fb = median(reps, || {
-        let loss = net.forward(x.clone()).square().mean();
-        let g = loss.backward();
-        grads = Some(g);
-    });
-    let step = median(reps, || {
-        let mut g = net.forward(x.clone()).square().mean().backward();
-        adam.step_in_place(&mut net, &mut g, 1e-4);
-    }) - fb;
+    let net = std::cell::RefCell::new(net);
+    let step = median(
+        reps,
+        || loss(&net.borrow()).backward(),
+        |mut g| {
+            adam.step_in_place(&mut *net.borrow_mut(), &mut g, 1e-4);
+        },
+    );
+    let net = net.into_inner();
     let mut target = net.clone().no_grad();
-    let polyak = median(reps, || polyak_update(&mut target, &net, 0.005));
+    let polyak = median(reps, || (), |()| polyak_update(&mut target, &net, 0.005));
     println!(
         "{label:>8}  one Q-net ({} params): forward+backward {:.1} ms, Adam {:.1} ms, polyak {:.1} ms",
         net.num_params(),
