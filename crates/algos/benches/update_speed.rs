@@ -62,7 +62,12 @@ fn median<T>(reps: usize, mut prepare: impl FnMut() -> T, mut work: impl FnMut(T
 
 /// Seconds per gradient step, timed over `per_sample` consecutive updates (TD3 alternates
 /// critic-only and delayed actor steps, so it is timed in pairs).
-fn off_policy_update(agent: &mut dyn Agent, reps: usize, per_sample: usize, rng: &mut ChaCha8Rng) -> f64 {
+fn off_policy_update(
+    agent: &mut dyn Agent,
+    reps: usize,
+    per_sample: usize,
+    rng: &mut ChaCha8Rng,
+) -> f64 {
     feed(agent, BATCH + 1, rng);
     let cell = std::cell::RefCell::new((agent, rng));
     median(
@@ -97,7 +102,10 @@ fn bench_size(hidden: &[usize], reps: usize, device: &Device) {
     td3.off_policy.buffer_size = 10_000;
     let mut agent = Td3::agent(OBS, ACT, td3, 1, device);
     let t = off_policy_update(&mut agent, reps, 2, &mut rng);
-    println!("{label:>8}  TD3 update  {:>9.1} ms (mean over a critic-only and a delayed step)", t * 1e3);
+    println!(
+        "{label:>8}  TD3 update  {:>9.1} ms (mean over a critic-only and a delayed step)",
+        t * 1e3
+    );
 
     let mut ppo = PpoConfig {
         n_steps: BATCH,
@@ -115,7 +123,11 @@ fn bench_size(hidden: &[usize], reps: usize, device: &Device) {
     );
     let mut agent = agent.into_inner();
     let obs = random(OBS, &mut ChaCha8Rng::seed_from_u64(1));
-    let act = median(reps, || (), |()| drop(agent.act(&obs, ActMode::Deterministic)));
+    let act = median(
+        reps,
+        || (),
+        |()| drop(agent.act(&obs, ActMode::Deterministic)),
+    );
     println!(
         "{label:>8}  PPO update  {:>9.1} ms (values of {BATCH} rows, GAE, 1 gradient step); act on 1 obs {:.2} ms",
         t * 1e3,

@@ -65,6 +65,24 @@ impl Default for NetConfig {
 }
 
 impl NetConfig {
+    /// The initialiser of an agent's networks with these hidden layers.
+    pub fn init<'a, R: rand::Rng>(
+        &'a self,
+        obs_dim: usize,
+        action_dim: usize,
+        rng: &'a mut R,
+        device: &'a foosball_nets::Device,
+    ) -> foosball_nets::NetInit<'a, R> {
+        foosball_nets::NetInit {
+            obs_dim,
+            action_dim,
+            hidden: &self.hidden,
+            activation: self.activation,
+            rng,
+            device,
+        }
+    }
+
     /// Rejects empty or zero widths, bad rates, betas outside `[0, 1)`, `eps <= 0` and a
     /// non-positive clipping norm.
     pub fn validate(&self) -> Result<(), ConfigError> {

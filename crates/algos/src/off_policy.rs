@@ -5,25 +5,18 @@
 use crate::agent::{ActMode, Agent, AgentError, Experience, Metrics};
 use crate::config::OffPolicyConfig;
 use crate::replay::{ReplayBatch, ReplayBuffer};
+use crate::schedule::LrSchedule;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use std::path::Path;
 
 /// The algorithm-specific half of an off-policy agent.
 pub trait OffPolicyLearner {
-    /// Observation width.
-    fn obs_dim(&self) -> usize;
-    /// Action width.
-    fn action_dim(&self) -> usize;
-    /// The replay schedule.
-    fn schedule(&self) -> &OffPolicyConfig;
     /// Policy actions in `[-1, 1]` for `[n, obs_dim]` observations (exploration noise
     /// included when `mode` is `Explore`).
     fn policy_act(&mut self, obs: &[f32], mode: ActMode, rng: &mut ChaCha8Rng) -> Vec<f32>;
     /// One gradient step on a sampled minibatch with learning rate `lr`.
     fn train_step(&mut self, batch: &ReplayBatch, lr: f64, rng: &mut ChaCha8Rng) -> Metrics;
-    /// The learning rate at `progress_remaining`.
-    fn lr(&self, progress_remaining: f64) -> f64;
     /// Writes the networks into `dir`.
     fn save(&self, dir: &Path) -> Result<(), AgentError>;
     /// Reads the networks from `dir`.
@@ -33,6 +26,10 @@ pub trait OffPolicyLearner {
 /// An off-policy agent: a learner plus its replay buffer and schedule.
 pub struct OffPolicy<L> {
     learner: L,
+    obs_dim: usize,
+    action_dim: usize,
+    schedule: OffPolicyConfig,
+    lr: LrSchedule,
     buffer: ReplayBuffer,
     rng: ChaCha8Rng,
     env_steps: u64,
@@ -40,12 +37,22 @@ pub struct OffPolicy<L> {
 }
 
 impl<L: OffPolicyLearner> OffPolicy<L> {
-    /// Wraps `learner`; `rng` draws random actions, minibatches and noise.
-    pub fn new(learner: L, rng: ChaCha8Rng) -> Self {
-        let s = learner.schedule();
-        let buffer = ReplayBuffer::new(s.buffer_size, learner.obs_dim(), learner.action_dim());
+    /// Wraps `learner` for an env of `obs_dim`/`action_dim`, trained on `schedule` with
+    /// learning rate `lr`; `rng` draws random actions, minibatches and noise.
+    pub fn new(
+        learner: L,
+        (obs_dim, action_dim): (usize, usize),
+        schedule: OffPolicyConfig,
+        lr: LrSchedule,
+        rng: ChaCha8Rng,
+    ) -> Self {
+        let buffer = ReplayBuffer::new(schedule.buffer_size, obs_dim, action_dim);
         Self {
             learner,
+            obs_dim,
+            action_dim,
+            schedule,
+            lr,
             buffer,
             rng,
             env_steps: 0,
@@ -66,15 +73,15 @@ impl<L: OffPolicyLearner> OffPolicy<L> {
 
 impl<L: OffPolicyLearner> Agent for OffPolicy<L> {
     fn obs_dim(&self) -> usize {
-        self.learner.obs_dim()
+        self.obs_dim
     }
 
     fn action_dim(&self) -> usize {
-        self.learner.action_dim()
+        self.action_dim
     }
 
     fn act(&mut self, obs: &[f32], mode: ActMode) -> Vec<f32> {
-        let warming_up = self.env_steps < self.learner.schedule().learning_starts;
+        let warming_up = self.env_steps < self.schedule.learning_starts;
         if mode == ActMode::Explore && warming_up {
             let n = obs.len() / self.obs_dim() * self.action_dim();
             return (0..n).map(|_| self.rng.random_range(-1.0..=1.0)).collect();
@@ -99,12 +106,12 @@ impl<L: OffPolicyLearner> Agent for OffPolicy<L> {
     }
 
     fn update(&mut self, progress_remaining: f64) -> Option<Metrics> {
-        let s = self.learner.schedule().clone();
+        let s = &self.schedule;
         if self.env_steps <= s.learning_starts || self.steps_since_train < s.train_freq {
             return None;
         }
         self.steps_since_train = 0;
-        let lr = self.learner.lr(progress_remaining);
+        let lr = self.lr.at(progress_remaining);
         let rounds: Vec<Metrics> = (0..s.gradient_steps)
             .map(|_| {
                 let batch = self.buffer.sample(s.batch_size, &mut self.rng);

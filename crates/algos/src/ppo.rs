@@ -208,15 +208,9 @@ impl Ppo {
     ) -> Self {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let n = &config.net;
-        let policy = GaussianPolicy::new(
-            obs_dim,
-            action_dim,
-            &n.hidden,
-            n.activation,
-            &mut rng,
-            device,
-        );
-        let value = ValueCritic::new(obs_dim, &n.hidden, n.activation, &mut rng, device);
+        let mut init = n.init(obs_dim, action_dim, &mut rng, device);
+        let policy = GaussianPolicy::new(&mut init);
+        let value = ValueCritic::new(&mut init);
         Self {
             obs_dim,
             action_dim,

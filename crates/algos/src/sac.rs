@@ -158,22 +158,9 @@ impl Sac {
     ) -> SacAgent {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let n = &config.net;
-        let actor = SquashedGaussianActor::new(
-            obs_dim,
-            action_dim,
-            &n.hidden,
-            n.activation,
-            &mut rng,
-            device,
-        );
-        let critic = TwinQ::new(
-            obs_dim,
-            action_dim,
-            &n.hidden,
-            n.activation,
-            &mut rng,
-            device,
-        );
+        let mut init = n.init(obs_dim, action_dim, &mut rng, device);
+        let actor = SquashedGaussianActor::new(&mut init);
+        let critic = TwinQ::new(&mut init);
         let critic_target = critic.clone().no_grad();
         let adam = || Adam::new(n.adam.clone());
         let learner = Sac {
@@ -190,7 +177,8 @@ impl Sac {
             gradient_steps: 0,
             config,
         };
-        OffPolicy::new(learner, rng)
+        let (schedule, lr) = (learner.config.off_policy.clone(), learner.config.net.lr);
+        OffPolicy::new(learner, (obs_dim, action_dim), schedule, lr, rng)
     }
 
     fn target_entropy(&self) -> f32 {
@@ -216,22 +204,6 @@ impl Sac {
 }
 
 impl OffPolicyLearner for Sac {
-    fn obs_dim(&self) -> usize {
-        self.obs_dim
-    }
-
-    fn action_dim(&self) -> usize {
-        self.action_dim
-    }
-
-    fn schedule(&self) -> &OffPolicyConfig {
-        &self.config.off_policy
-    }
-
-    fn lr(&self, progress_remaining: f64) -> f64 {
-        self.config.net.lr.at(progress_remaining)
-    }
-
     fn policy_act(&mut self, obs: &[f32], mode: ActMode, rng: &mut ChaCha8Rng) -> Vec<f32> {
         let actor = self.actor.valid();
         let device = self.device.clone().without_autodiff();

@@ -121,22 +121,9 @@ impl Td3 {
     ) -> Td3Agent {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let n = &config.net;
-        let actor = DeterministicActor::new(
-            obs_dim,
-            action_dim,
-            &n.hidden,
-            n.activation,
-            &mut rng,
-            device,
-        );
-        let critic = TwinQ::new(
-            obs_dim,
-            action_dim,
-            &n.hidden,
-            n.activation,
-            &mut rng,
-            device,
-        );
+        let mut init = n.init(obs_dim, action_dim, &mut rng, device);
+        let actor = DeterministicActor::new(&mut init);
+        let critic = TwinQ::new(&mut init);
         let learner = Td3 {
             obs_dim,
             action_dim,
@@ -151,7 +138,8 @@ impl Td3 {
             last_actor_loss: f64::NAN,
             config,
         };
-        OffPolicy::new(learner, rng)
+        let (schedule, lr) = (learner.config.off_policy.clone(), learner.config.net.lr);
+        OffPolicy::new(learner, (obs_dim, action_dim), schedule, lr, rng)
     }
 
     /// The actor.
@@ -166,22 +154,6 @@ impl Td3 {
 }
 
 impl OffPolicyLearner for Td3 {
-    fn obs_dim(&self) -> usize {
-        self.obs_dim
-    }
-
-    fn action_dim(&self) -> usize {
-        self.action_dim
-    }
-
-    fn schedule(&self) -> &OffPolicyConfig {
-        &self.config.off_policy
-    }
-
-    fn lr(&self, progress_remaining: f64) -> f64 {
-        self.config.net.lr.at(progress_remaining)
-    }
-
     fn policy_act(&mut self, obs: &[f32], mode: ActMode, rng: &mut ChaCha8Rng) -> Vec<f32> {
         let device = self.device.clone().without_autodiff();
         let mut actions = host(

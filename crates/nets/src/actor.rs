@@ -3,10 +3,11 @@
 use crate::distributions::{
     diag_gaussian_entropy, diag_gaussian_log_prob, squashed_gaussian_log_prob,
 };
-use crate::mlp::{Activation, Mlp};
+use crate::init::NetInit;
+use crate::mlp::Mlp;
 use burn::module::{Module, Param};
+use burn::tensor::Tensor;
 use burn::tensor::activation::tanh;
-use burn::tensor::{Device, Tensor};
 use rand::Rng;
 
 /// Lower clamp of SAC's log standard deviation (SB3's `LOG_STD_MIN`).
@@ -22,16 +23,9 @@ pub struct SquashedGaussianActor {
 }
 
 impl SquashedGaussianActor {
-    /// Parameters drawn from `rng` (see [`Mlp::new`]).
-    pub fn new(
-        obs_dim: usize,
-        action_dim: usize,
-        hidden: &[usize],
-        activation: Activation,
-        rng: &mut impl Rng,
-        device: &Device,
-    ) -> Self {
-        let net = Mlp::new(obs_dim, hidden, 2 * action_dim, activation, rng, device);
+    /// Parameters drawn next from `init`'s RNG.
+    pub fn new(init: &mut NetInit<'_, impl Rng>) -> Self {
+        let net = init.mlp(init.obs_dim, 2 * init.action_dim);
         Self { net }
     }
 
@@ -68,16 +62,9 @@ pub struct DeterministicActor {
 }
 
 impl DeterministicActor {
-    /// Parameters drawn from `rng` (see [`Mlp::new`]).
-    pub fn new(
-        obs_dim: usize,
-        action_dim: usize,
-        hidden: &[usize],
-        activation: Activation,
-        rng: &mut impl Rng,
-        device: &Device,
-    ) -> Self {
-        let net = Mlp::new(obs_dim, hidden, action_dim, activation, rng, device);
+    /// Parameters drawn next from `init`'s RNG.
+    pub fn new(init: &mut NetInit<'_, impl Rng>) -> Self {
+        let net = init.mlp(init.obs_dim, init.action_dim);
         Self { net }
     }
 
@@ -97,17 +84,10 @@ pub struct GaussianPolicy {
 }
 
 impl GaussianPolicy {
-    /// Parameters drawn from `rng` (see [`Mlp::new`]).
-    pub fn new(
-        obs_dim: usize,
-        action_dim: usize,
-        hidden: &[usize],
-        activation: Activation,
-        rng: &mut impl Rng,
-        device: &Device,
-    ) -> Self {
-        let net = Mlp::new(obs_dim, hidden, action_dim, activation, rng, device);
-        let log_std = Param::from_tensor(Tensor::zeros([action_dim], device));
+    /// Parameters drawn next from `init`'s RNG.
+    pub fn new(init: &mut NetInit<'_, impl Rng>) -> Self {
+        let net = init.mlp(init.obs_dim, init.action_dim);
+        let log_std = Param::from_tensor(Tensor::zeros([init.action_dim], init.device));
         Self { net, log_std }
     }
 

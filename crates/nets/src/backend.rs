@@ -72,7 +72,9 @@ impl Backend {
         let device = match self {
             #[cfg(feature = "flex")]
             Backend::Flex => Device::flex(),
+            // Deprecated upstream in favour of flex; kept because the design names it.
             #[cfg(feature = "ndarray")]
+            #[allow(deprecated)]
             Backend::Ndarray => Device::ndarray(),
             #[cfg(feature = "wgpu")]
             Backend::Wgpu => Device::wgpu(Default::default()),

@@ -1,8 +1,9 @@
 //! Critics: the state-action value `Q(s, a)`, SAC/TD3's twin pair, and PPO's `V(s)`.
 
-use crate::mlp::{Activation, Mlp};
+use crate::init::NetInit;
+use crate::mlp::Mlp;
 use burn::module::Module;
-use burn::tensor::{Device, Tensor};
+use burn::tensor::Tensor;
 use rand::Rng;
 
 /// `Q(s, a) = mlp([s, a])`: `[batch, obs_dim]`, `[batch, action_dim] -> [batch]`.
@@ -12,16 +13,9 @@ pub struct QNetwork {
 }
 
 impl QNetwork {
-    /// Parameters drawn from `rng` (see [`Mlp::new`]).
-    pub fn new(
-        obs_dim: usize,
-        action_dim: usize,
-        hidden: &[usize],
-        activation: Activation,
-        rng: &mut impl Rng,
-        device: &Device,
-    ) -> Self {
-        let net = Mlp::new(obs_dim + action_dim, hidden, 1, activation, rng, device);
+    /// Parameters drawn next from `init`'s RNG.
+    pub fn new(init: &mut NetInit<'_, impl Rng>) -> Self {
+        let net = init.mlp(init.obs_dim + init.action_dim, 1);
         Self { net }
     }
 
@@ -44,16 +38,9 @@ pub struct TwinQ {
 
 impl TwinQ {
     /// `q1` is drawn before `q2`.
-    pub fn new(
-        obs_dim: usize,
-        action_dim: usize,
-        hidden: &[usize],
-        activation: Activation,
-        rng: &mut impl Rng,
-        device: &Device,
-    ) -> Self {
-        let q1 = QNetwork::new(obs_dim, action_dim, hidden, activation, rng, device);
-        let q2 = QNetwork::new(obs_dim, action_dim, hidden, activation, rng, device);
+    pub fn new(init: &mut NetInit<'_, impl Rng>) -> Self {
+        let q1 = QNetwork::new(init);
+        let q2 = QNetwork::new(init);
         Self { q1, q2 }
     }
 
@@ -77,17 +64,10 @@ pub struct ValueCritic {
 }
 
 impl ValueCritic {
-    /// Parameters drawn from `rng` (see [`Mlp::new`]).
-    pub fn new(
-        obs_dim: usize,
-        hidden: &[usize],
-        activation: Activation,
-        rng: &mut impl Rng,
-        device: &Device,
-    ) -> Self {
-        Self {
-            net: Mlp::new(obs_dim, hidden, 1, activation, rng, device),
-        }
+    /// Parameters drawn next from `init`'s RNG.
+    pub fn new(init: &mut NetInit<'_, impl Rng>) -> Self {
+        let net = init.mlp(init.obs_dim, 1);
+        Self { net }
     }
 
     /// Values `[batch]`.

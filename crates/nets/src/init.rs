@@ -59,3 +59,35 @@ mod tests {
         assert_ne!(w, draw(2));
     }
 }
+
+/// Everything an agent's networks are drawn from: the env's sizes, the hidden layers
+/// shared by all its networks, their activation, the seeded RNG and the device.
+/// Networks built from one `NetInit` draw from the RNG in construction order.
+pub struct NetInit<'a, R: Rng> {
+    /// Observation width.
+    pub obs_dim: usize,
+    /// Action width.
+    pub action_dim: usize,
+    /// Hidden layer widths.
+    pub hidden: &'a [usize],
+    /// Non-linearity between hidden layers.
+    pub activation: crate::Activation,
+    /// Where parameters are drawn from.
+    pub rng: &'a mut R,
+    /// Where parameters live (an autodiff device to train them).
+    pub device: &'a Device,
+}
+
+impl<R: Rng> NetInit<'_, R> {
+    /// An MLP `input -> hidden -> output` drawn next from the RNG.
+    pub fn mlp(&mut self, input: usize, output: usize) -> crate::Mlp {
+        crate::Mlp::new(
+            input,
+            self.hidden,
+            output,
+            self.activation,
+            self.rng,
+            self.device,
+        )
+    }
+}

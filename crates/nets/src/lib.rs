@@ -23,6 +23,7 @@ pub use backend::{Backend, BackendError};
 pub use burn;
 pub use burn::tensor::{Device, Tensor, TensorData};
 pub use critic::{QNetwork, TwinQ, ValueCritic};
+pub use init::NetInit;
 pub use mlp::{Activation, Mlp};
 pub use optim::{Adam, AdamConfig, StepReport};
 pub use params::polyak_update;
