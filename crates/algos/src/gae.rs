@@ -21,7 +21,7 @@ pub fn gae(
     let n_envs = last_values.len();
     let n = rewards.len();
     assert!(
-        n_envs > 0 && n % n_envs == 0,
+        n_envs > 0 && n.is_multiple_of(n_envs),
         "rollout arrays must be [n_steps, n_envs]"
     );
     assert_eq!(

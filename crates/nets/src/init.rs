@@ -32,34 +32,6 @@ pub fn linear(d_in: usize, d_out: usize, rng: &mut impl Rng, device: &Device) ->
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::Backend;
-    use rand::SeedableRng;
-    use rand_chacha::ChaCha8Rng;
-
-    #[test]
-    fn linear_layers_follow_pytorchs_bound_and_the_seed() {
-        let device = Backend::default_cpu().unwrap().device().unwrap();
-        let draw = |seed| {
-            let layer = linear(16, 8, &mut ChaCha8Rng::seed_from_u64(seed), &device);
-            layer
-                .weight
-                .val()
-                .into_data()
-                .try_into_vec::<f32>()
-                .unwrap()
-        };
-        let w = draw(1);
-        assert_eq!(w.len(), 128);
-        assert!(w.iter().all(|x| x.abs() <= 0.25));
-        assert!(w.iter().any(|x| x.abs() > 0.2), "uses the whole range");
-        assert_eq!(w, draw(1));
-        assert_ne!(w, draw(2));
-    }
-}
-
 /// Everything an agent's networks are drawn from: the env's sizes, the hidden layers
 /// shared by all its networks, their activation, the seeded RNG and the device.
 /// Networks built from one `NetInit` draw from the RNG in construction order.
@@ -89,5 +61,33 @@ impl<R: Rng> NetInit<'_, R> {
             self.rng,
             self.device,
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Backend;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+
+    #[test]
+    fn linear_layers_follow_pytorchs_bound_and_the_seed() {
+        let device = Backend::default_cpu().unwrap().device().unwrap();
+        let draw = |seed| {
+            let layer = linear(16, 8, &mut ChaCha8Rng::seed_from_u64(seed), &device);
+            layer
+                .weight
+                .val()
+                .into_data()
+                .try_into_vec::<f32>()
+                .unwrap()
+        };
+        let w = draw(1);
+        assert_eq!(w.len(), 128);
+        assert!(w.iter().all(|x| x.abs() <= 0.25));
+        assert!(w.iter().any(|x| x.abs() > 0.2), "uses the whole range");
+        assert_eq!(w, draw(1));
+        assert_ne!(w, draw(2));
     }
 }

@@ -54,7 +54,7 @@ enum Moments {
     /// Host vectors (CPU backends: fused update loop).
     Host(Vec<f32>, Vec<f32>),
     /// Device tensors (GPU backends: tensor ops).
-    Device(Tensor<1>, Tensor<1>),
+    Device(Box<[Tensor<1>; 2]>),
 }
 
 /// A parameter's gradient, on the host or on the device.
@@ -239,12 +239,12 @@ impl Adam {
                 p
             }
             Some(Grad::Device(g)) => {
-                let (m, v) = match moments[i].take() {
-                    Some(Moments::Device(m, v)) => (m, v),
-                    _ => (g.zeros_like(), g.zeros_like()),
+                let [m, v] = match moments[i].take() {
+                    Some(Moments::Device(mv)) => *mv,
+                    _ => [g.zeros_like(), g.zeros_like()],
                 };
                 let [p, m, v] = update.device(p, g, m, v);
-                moments[i] = Some(Moments::Device(m, v));
+                moments[i] = Some(Moments::Device(Box::new([m, v])));
                 p
             }
         });
