@@ -2,7 +2,12 @@
 //!
 //! - [`env`]: the table (rapier3d), Pendulum, vectorised environments, seeding;
 //! - [`nets`]: Burn networks, distributions, Adam;
-//! - [`algos`]: PPO, SAC, TD3, buffers and the agent/rollout shape.
+//! - [`algos`]: PPO, SAC, TD3, buffers and the agent/rollout shape;
+//! - [`config`]: the run configuration (`configs/*.toml`);
+//! - [`metrics`]: the paper's test metrics with confidence intervals.
+
+pub mod config;
+pub mod metrics;
 
 pub use foosball_algos as algos;
 pub use foosball_env as env;

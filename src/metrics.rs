@@ -1,0 +1,191 @@
+//! The paper's five test metrics with 95 % confidence intervals.
+//!
+//! Over `n` deterministic test episodes: score rate (share of episodes whose ball crossed
+//! the attacked goal line), mean ball-to-goal distance over all steps of all episodes
+//! (cm), mean ball speed over all steps (cm/s), mean episode return, mean distance at the
+//! last step of each episode (cm). Intervals: Wilson's for the score rate, the normal
+//! approximation for means over episodes, and for the all-steps means (ratios of sums)
+//! the delta method with episodes as clusters.
+
+use serde::{Deserialize, Serialize};
+
+/// z for a two-sided 95 % interval.
+const Z95: f64 = 1.959_963_984_540_054;
+
+/// What one test episode contributes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct EpisodeSummary {
+    /// Agent steps.
+    pub steps: u64,
+    /// Undiscounted return.
+    pub ret: f64,
+    /// The ball crossed the attacked goal line.
+    pub scored: bool,
+    /// Sum over steps of the ball-to-goal distance, cm.
+    pub distance_sum: f64,
+    /// Sum over steps of the ball speed, cm/s.
+    pub speed_sum: f64,
+    /// Ball-to-goal distance at the last step, cm.
+    pub final_distance: f64,
+}
+
+/// A point estimate and its 95 % confidence interval.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Estimate {
+    /// The estimate.
+    pub mean: f64,
+    /// Lower and upper bound of the 95 % interval.
+    pub ci95: [f64; 2],
+}
+
+impl Estimate {
+    fn symmetric(mean: f64, half_width: f64) -> Self {
+        Self {
+            mean,
+            ci95: [mean - half_width, mean + half_width],
+        }
+    }
+}
+
+/// The test metrics of a run (`test/metrics.json`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TestMetrics {
+    /// Episodes played.
+    pub episodes: usize,
+    /// Share of episodes that scored, in [0, 1].
+    pub score_rate: Estimate,
+    /// Mean ball-to-goal distance over all steps, cm.
+    pub mean_goal_distance: Estimate,
+    /// Mean ball speed over all steps, cm/s.
+    pub mean_ball_speed: Estimate,
+    /// Mean episode return.
+    pub mean_return: Estimate,
+    /// Mean ball-to-goal distance at the last step, cm.
+    pub mean_final_distance: Estimate,
+    /// Mean episode length, agent steps.
+    pub mean_length: Estimate,
+}
+
+/// Wilson score interval of `k` successes in `n` trials.
+pub fn wilson(k: usize, n: usize) -> Estimate {
+    let (k, n) = (k as f64, n as f64);
+    let p = k / n;
+    let z2 = Z95 * Z95;
+    let centre = (p + z2 / (2.0 * n)) / (1.0 + z2 / n);
+    let half = Z95 / (1.0 + z2 / n) * (p * (1.0 - p) / n + z2 / (4.0 * n * n)).sqrt();
+    Estimate {
+        mean: p,
+        ci95: [(centre - half).max(0.0), (centre + half).min(1.0)],
+    }
+}
+
+/// Mean of `x` with the normal-approximation interval (sample standard deviation).
+pub fn mean_estimate(x: &[f64]) -> Estimate {
+    let n = x.len() as f64;
+    let mean = x.iter().sum::<f64>() / n;
+    if x.len() < 2 {
+        return Estimate::symmetric(mean, f64::NAN);
+    }
+    let var = x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    Estimate::symmetric(mean, Z95 * (var / n).sqrt())
+}
+
+/// `sum(y) / sum(m)` with the delta-method interval, each `(y_i, m_i)` one cluster.
+pub fn ratio_estimate(y: &[f64], m: &[f64]) -> Estimate {
+    let n = y.len() as f64;
+    let ratio = y.iter().sum::<f64>() / m.iter().sum::<f64>();
+    if y.len() < 2 {
+        return Estimate::symmetric(ratio, f64::NAN);
+    }
+    let m_bar = m.iter().sum::<f64>() / n;
+    let s2 = y
+        .iter()
+        .zip(m)
+        .map(|(y, m)| (y - ratio * m).powi(2))
+        .sum::<f64>()
+        / (n - 1.0);
+    Estimate::symmetric(ratio, Z95 * (s2 / n).sqrt() / m_bar)
+}
+
+impl TestMetrics {
+    /// The metrics of `episodes` (at least one).
+    pub fn from_episodes(episodes: &[EpisodeSummary]) -> Self {
+        assert!(!episodes.is_empty(), "metrics need at least one episode");
+        let col = |f: fn(&EpisodeSummary) -> f64| -> Vec<f64> { episodes.iter().map(f).collect() };
+        let steps = col(|e| e.steps as f64);
+        Self {
+            episodes: episodes.len(),
+            score_rate: wilson(episodes.iter().filter(|e| e.scored).count(), episodes.len()),
+            mean_goal_distance: ratio_estimate(&col(|e| e.distance_sum), &steps),
+            mean_ball_speed: ratio_estimate(&col(|e| e.speed_sum), &steps),
+            mean_return: mean_estimate(&col(|e| e.ret)),
+            mean_final_distance: mean_estimate(&col(|e| e.final_distance)),
+            mean_length: mean_estimate(&steps),
+        }
+    }
+
+    /// The five paper metrics (and the episode length) as rows `(name, estimate)`.
+    pub fn rows(&self) -> [(&'static str, Estimate); 6] {
+        [
+            ("score rate", self.score_rate),
+            ("mean distance to goal (cm)", self.mean_goal_distance),
+            ("mean ball speed (cm/s)", self.mean_ball_speed),
+            ("mean episode reward", self.mean_return),
+            ("mean final distance (cm)", self.mean_final_distance),
+            ("mean episode length (steps)", self.mean_length),
+        ]
+    }
+
+    /// A markdown table of the metrics with their intervals.
+    pub fn to_markdown(&self) -> String {
+        let mut out = format!(
+            "| metric ({} episodes) | value | 95 % CI |\n| --- | --- | --- |\n",
+            self.episodes
+        );
+        for (name, e) in self.rows() {
+            out += &format!(
+                "| {name} | {:.4} | [{:.4}, {:.4}] |\n",
+                e.mean, e.ci95[0], e.ci95[1]
+            );
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wilson_matches_the_textbook_example() {
+        // 8 of 10: Wilson 95 % interval [0.4902, 0.9433] (e.g. Newcombe 1998).
+        let e = wilson(8, 10);
+        assert_eq!(e.mean, 0.8);
+        assert!(
+            (e.ci95[0] - 0.4902).abs() < 1e-4 && (e.ci95[1] - 0.9433).abs() < 1e-4,
+            "{e:?}"
+        );
+        assert_eq!(wilson(0, 5).ci95[0], 0.0);
+    }
+
+    #[test]
+    fn means_over_steps_weight_long_episodes_more() {
+        let e = |steps, distance_sum, scored| EpisodeSummary {
+            steps,
+            ret: distance_sum,
+            scored,
+            distance_sum,
+            speed_sum: 2.0 * distance_sum,
+            final_distance: 1.0,
+        };
+        let m = TestMetrics::from_episodes(&[e(1, 10.0, true), e(3, 6.0, false)]);
+        assert_eq!(m.mean_goal_distance.mean, 16.0 / 4.0);
+        assert_eq!(m.mean_ball_speed.mean, 32.0 / 4.0);
+        assert_eq!(m.mean_return.mean, 8.0);
+        assert_eq!(m.score_rate.mean, 0.5);
+        assert_eq!(m.mean_final_distance.ci95, [1.0, 1.0]);
+        // Mean 8, sample sd 2.828: half-width 1.96 * 2 = 3.92.
+        assert!((m.mean_return.ci95[1] - 8.0 - Z95 * 2.0).abs() < 1e-9);
+        assert!(m.to_markdown().contains("| score rate | 0.5000 |"));
+    }
+}

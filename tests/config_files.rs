@@ -1,0 +1,81 @@
+//! `configs/*.toml` hold the paper's protocol, and bad files are refused with the file,
+//! the line and the key at fault.
+
+use foosball_rl::config::{Algo, ConfigFileError, RunConfig};
+use std::path::{Path, PathBuf};
+
+fn config_path(algo: Algo) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("configs/{algo}.toml"))
+}
+
+#[test]
+fn the_shipped_configs_hold_the_papers_protocol() {
+    for algo in [Algo::Ppo, Algo::Sac, Algo::Td3] {
+        let c = RunConfig::load(&config_path(algo)).unwrap();
+        assert_eq!(c.algo, algo);
+        assert_eq!(c.hidden(), &[3000; 7]);
+        let p = &c.protocol;
+        assert_eq!(
+            (p.epochs, p.steps_per_epoch, p.eval_every),
+            (15, 100_000, 3_000)
+        );
+        assert_eq!((p.eval_episodes, p.test_episodes), (10, 1_000));
+        let (net, gamma) = match algo {
+            Algo::Ppo => (&c.ppo.as_ref().unwrap().net, c.ppo.as_ref().unwrap().gamma),
+            Algo::Sac => {
+                let s = c.sac.as_ref().unwrap();
+                assert_eq!(s.off_policy.buffer_size, 1_000_000);
+                (&s.net, s.off_policy.gamma)
+            }
+            Algo::Td3 => {
+                let t = c.td3.as_ref().unwrap();
+                assert_eq!(t.off_policy.buffer_size, 1_000_000);
+                (&t.net, t.off_policy.gamma)
+            }
+        };
+        assert_eq!(net.lr.at(1.0), 3e-4);
+        assert_eq!(net.adam.eps, 1e-8);
+        assert!(
+            net.adam.max_grad_norm.is_some(),
+            "the paper clipped all three"
+        );
+        assert_eq!(gamma, 0.99);
+        // What a run saves reads back the same.
+        let again = RunConfig::from_toml(&c.to_toml(), Path::new("saved.toml")).unwrap();
+        assert_eq!(again, c);
+    }
+}
+
+fn error(text: &str) -> String {
+    let e = RunConfig::from_toml(text, Path::new("bad.toml")).unwrap_err();
+    e.to_string()
+}
+
+#[test]
+fn an_unknown_key_names_the_file_the_line_and_the_key() {
+    let e = error("algo = \"sac\"\n\n[sac.net]\nhiden = [64]\n");
+    assert!(e.starts_with("bad.toml:4:"), "{e}");
+    assert!(e.contains("hiden"), "{e}");
+}
+
+#[test]
+fn an_invalid_value_names_the_file_the_line_and_the_key() {
+    let e = error("algo = \"td3\"\n[td3.net]\nactivation = \"relu\"\nhidden = [64, 0]\n");
+    assert_eq!(e, "bad.toml:4: td3.net.hidden: widths must be positive");
+    let e = error("algo = \"sac\"\n[protocol]\nepochs = 0\n");
+    assert_eq!(e, "bad.toml:3: protocol.epochs: must be positive");
+    let e = error("algo = \"sac\"\n[env]\nframe_skip = 0\n");
+    assert!(e.starts_with("bad.toml:3: env.frame_skip:"), "{e}");
+}
+
+#[test]
+fn malformed_files_and_wrong_sections_are_refused() {
+    assert!(error("algo = \"dqn\"\n").contains("dqn"));
+    assert!(error("algo = \"sac\"\n[protocol]\nepochs = -1\n").starts_with("bad.toml:3:"));
+    assert!(error("algo = [\n").starts_with("bad.toml:"));
+    let e = error("algo = \"sac\"\n[ppo]\nn_steps = 8\n");
+    assert!(e.contains("ppo: section for another algorithm"), "{e}");
+    let missing = RunConfig::load(Path::new("no/such.toml")).unwrap_err();
+    assert!(matches!(missing, ConfigFileError::Read { .. }));
+    assert!(missing.to_string().contains("no/such.toml"));
+}
