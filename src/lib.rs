@@ -4,9 +4,11 @@
 //! - [`nets`]: Burn networks, distributions, Adam;
 //! - [`algos`]: PPO, SAC, TD3, buffers and the agent/rollout shape;
 //! - [`config`]: the run configuration (`configs/*.toml`);
+//! - [`evaluation`]: deterministic episodes on held-out seeds, played side by side;
 //! - [`metrics`]: the paper's test metrics with confidence intervals.
 
 pub mod config;
+pub mod evaluation;
 pub mod metrics;
 
 pub use foosball_algos as algos;
