@@ -5,11 +5,15 @@
 //! - [`algos`]: PPO, SAC, TD3, buffers and the agent/rollout shape;
 //! - [`config`]: the run configuration (`configs/*.toml`);
 //! - [`evaluation`]: deterministic episodes on held-out seeds, played side by side;
-//! - [`metrics`]: the paper's test metrics with confidence intervals.
+//! - [`metrics`]: the paper's test metrics with confidence intervals;
+//! - [`run_dir`]: the files of a run, written atomically;
+//! - [`train`]: the training loop shared by the three algorithms.
 
 pub mod config;
 pub mod evaluation;
 pub mod metrics;
+pub mod run_dir;
+pub mod train;
 
 pub use foosball_algos as algos;
 pub use foosball_env as env;

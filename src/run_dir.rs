@@ -1,0 +1,98 @@
+//! The files of a run directory, written atomically (temporary file, then rename).
+//!
+//! ```text
+//! RUN/config.toml          effective configuration
+//! RUN/episodes.csv         env_step,return,length,scored      (training episodes)
+//! RUN/evaluations.csv      env_step,mean_return,score_rate,mean_goal_distance
+//! RUN/updates.csv          env_step,name,value                (losses, alpha, ...)
+//! RUN/last/, RUN/best/     networks (Burn records) after the last epoch / best evaluation
+//! RUN/test/metrics.json    the paper's five metrics with 95 % intervals
+//! RUN/test/metrics.md      the same as a markdown table
+//! RUN/test/trajectories.bin  every test episode's steps (format below)
+//! ```
+//!
+//! `trajectories.bin`, little-endian: magic `FSBT`, `u32` version 1, `u32` obs_dim,
+//! `u32` action_dim, `u64` episodes; then per episode `u64` seed, `u32` steps T,
+//! `f32` observations `[T, obs_dim]`, `f32` actions `[T, action_dim]`, `f32` rewards `[T]`.
+
+use crate::evaluation::PlayedEpisode;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// A file of the run that could not be written or read.
+#[derive(Debug, thiserror::Error)]
+#[error("{path}: {source}")]
+pub struct RunFileError {
+    /// The file.
+    pub path: PathBuf,
+    /// Why.
+    pub source: std::io::Error,
+}
+
+/// Writes `bytes` to `path` through `path.tmp` and a rename, so a crash leaves either the
+/// old file or the new one.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), RunFileError> {
+    let err = |source| RunFileError {
+        path: path.to_path_buf(),
+        source,
+    };
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(err)?;
+    }
+    let mut tmp = path.as_os_str().to_owned();
+    tmp.push(".tmp");
+    let tmp = PathBuf::from(tmp);
+    let mut file = std::fs::File::create(&tmp).map_err(err)?;
+    file.write_all(bytes).map_err(err)?;
+    file.sync_all().map_err(err)?;
+    std::fs::rename(&tmp, path).map_err(err)
+}
+
+/// Appends lines to a CSV file, writing the header first when the file is new.
+pub fn append_csv(path: &Path, header: &str, lines: &[String]) -> Result<(), RunFileError> {
+    let err = |source| RunFileError {
+        path: path.to_path_buf(),
+        source,
+    };
+    let new = !path.exists();
+    let mut file = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(path)
+        .map_err(err)?;
+    let mut text = String::new();
+    if new {
+        text.push_str(header);
+        text.push('\n');
+    }
+    for line in lines {
+        text.push_str(line);
+        text.push('\n');
+    }
+    file.write_all(text.as_bytes()).map_err(err)
+}
+
+/// The `trajectories.bin` bytes of `episodes` (recorded ones only).
+pub fn trajectories_bytes(
+    episodes: &[PlayedEpisode],
+    obs_dim: usize,
+    action_dim: usize,
+) -> Vec<u8> {
+    let recorded: Vec<&PlayedEpisode> =
+        episodes.iter().filter(|e| e.trajectory.is_some()).collect();
+    let mut out = Vec::new();
+    out.extend_from_slice(b"FSBT");
+    out.extend_from_slice(&1u32.to_le_bytes());
+    out.extend_from_slice(&(obs_dim as u32).to_le_bytes());
+    out.extend_from_slice(&(action_dim as u32).to_le_bytes());
+    out.extend_from_slice(&(recorded.len() as u64).to_le_bytes());
+    for e in recorded {
+        let t = e.trajectory.as_ref().expect("filtered");
+        out.extend_from_slice(&e.seed.to_le_bytes());
+        out.extend_from_slice(&(t.rewards.len() as u32).to_le_bytes());
+        for x in t.obs.iter().chain(&t.actions).chain(&t.rewards) {
+            out.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    out
+}
