@@ -127,11 +127,10 @@ pub fn play(
     Ok(play_deterministic(agent, &mut envs, &seeds, record)?)
 }
 
-/// Writes `test/metrics.json`, `test/metrics.md` and `test/trajectories.bin`.
-pub fn write_test(run_dir: &Path, episodes: &[PlayedEpisode]) -> Result<TestMetrics, TrainError> {
+/// Writes `metrics.json`, `metrics.md` and `trajectories.bin` into `dir`.
+pub fn write_test(dir: &Path, episodes: &[PlayedEpisode]) -> Result<TestMetrics, TrainError> {
     let summaries: Vec<EpisodeSummary> = episodes.iter().map(|e| e.summary).collect();
     let metrics = TestMetrics::from_episodes(&summaries);
-    let dir = run_dir.join("test");
     let json = serde_json::to_string_pretty(&metrics).expect("metrics serialise");
     write_atomic(&dir.join("metrics.json"), json.as_bytes())?;
     write_atomic(&dir.join("metrics.md"), metrics.to_markdown().as_bytes())?;
@@ -231,7 +230,7 @@ pub fn train(
             save(agent.as_ref(), &run_dir.join("last"))?;
         }
         let played = play(agent.as_mut(), config, TEST_ENVS, p.test_episodes, true)?;
-        write_test(run_dir, &played)
+        write_test(&run_dir.join("test"), &played)
     })
 }
 

@@ -117,3 +117,36 @@ fn bad_input_is_refused_with_the_culprit_named() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+fn evaluate(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_evaluate"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn evaluate_reproduces_the_test_of_the_saved_networks() {
+    let dir = scratch("evaluate");
+    let config = tiny_config(&dir, "td3");
+    let run_dir = dir.join("run");
+    let trained = run(&config, &run_dir, "2");
+    let r = run_dir.to_str().unwrap();
+    let o = evaluate(&["--run", r, "--checkpoint", "last"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // Loaded networks play the same test episodes as the trained ones did.
+    let again = std::fs::read_to_string(run_dir.join("evaluate-last/metrics.json")).unwrap();
+    assert_eq!(again, trained);
+    let o = evaluate(&["--run", r, "--episodes", "2"]);
+    assert!(o.status.success());
+    let best: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(run_dir.join("evaluate-best/metrics.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(best["episodes"], 2);
+
+    let o = evaluate(&["--run", dir.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("not a run directory"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
