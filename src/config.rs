@@ -2,8 +2,8 @@
 //! environment and the algorithm's settings. Unknown keys and invalid values are refused
 //! with the file, the line and the dotted key.
 
-use foosball_algos::{ConfigError as AlgoConfigError, PpoConfig, SacConfig, Td3Config};
-use foosball_env::FoosballConfig;
+use foosball_algos::{PpoConfig, SacConfig, Td3Config};
+use foosball_env::{ConfigError, FoosballConfig};
 use foosball_nets::Backend;
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -136,43 +136,7 @@ pub enum ConfigFileError {
     },
 }
 
-/// An out-of-range setting, before it is tied to a file.
-#[derive(Debug, Clone, PartialEq)]
-pub struct InvalidSetting {
-    /// Dotted key from the top of the file.
-    pub key: String,
-    /// What is wrong.
-    pub message: String,
-}
-
-impl InvalidSetting {
-    fn new(key: impl Into<String>, message: impl Into<String>) -> Self {
-        Self {
-            key: key.into(),
-            message: message.into(),
-        }
-    }
-
-    fn from_algo(section: &str, e: AlgoConfigError) -> Self {
-        Self::new(format!("{section}.{}", e.key), e.message)
-    }
-}
-
 impl RunConfig {
-    /// The paper's protocol with the algorithm's code defaults (SB3's, 256x256 networks).
-    pub fn defaults(algo: Algo) -> Self {
-        let mut config = Self {
-            algo,
-            protocol: Protocol::default(),
-            env: FoosballConfig::default(),
-            ppo: None,
-            sac: None,
-            td3: None,
-        };
-        config.fill_algo_section();
-        config
-    }
-
     /// Reads and checks a TOML file.
     pub fn load(path: &Path) -> Result<Self, ConfigFileError> {
         let text = std::fs::read_to_string(path).map_err(|source| ConfigFileError::Read {
@@ -213,13 +177,13 @@ impl RunConfig {
     }
 
     /// Rejects out-of-range values and sections of another algorithm.
-    pub fn validate(&self) -> Result<(), InvalidSetting> {
+    pub fn validate(&self) -> Result<(), ConfigError> {
         let p = &self.protocol;
         let positive = |ok: bool, key: &str| {
             if ok {
                 Ok(())
             } else {
-                Err(InvalidSetting::new(
+                Err(ConfigError::new(
                     format!("protocol.{key}"),
                     "must be positive",
                 ))
@@ -234,39 +198,37 @@ impl RunConfig {
         if let Some(b) = p.backend
             && !b.is_compiled()
         {
-            return Err(InvalidSetting::new(
+            return Err(ConfigError::new(
                 "protocol.backend",
                 format!("`{b}` is not compiled in: rebuild with `--features foosball-nets/{b}`"),
             ));
         }
-        self.env
-            .validate()
-            .map_err(|e| InvalidSetting::new(format!("env.{}", e.key), e.message))?;
+        self.env.validate().map_err(|e| e.under("env"))?;
         for (name, present) in [
             ("ppo", self.ppo.is_some()),
             ("sac", self.sac.is_some()),
             ("td3", self.td3.is_some()),
         ] {
             if present && name != self.algo.name() {
-                return Err(InvalidSetting::new(
+                return Err(ConfigError::new(
                     name,
                     format!("section for another algorithm (algo = \"{}\")", self.algo),
                 ));
             }
         }
         match self.algo {
-            Algo::Ppo => self.ppo.as_ref().map_or(Ok(()), |c| {
-                c.validate()
-                    .map_err(|e| InvalidSetting::from_algo("ppo", e))
-            }),
-            Algo::Sac => self.sac.as_ref().map_or(Ok(()), |c| {
-                c.validate()
-                    .map_err(|e| InvalidSetting::from_algo("sac", e))
-            }),
-            Algo::Td3 => self.td3.as_ref().map_or(Ok(()), |c| {
-                c.validate()
-                    .map_err(|e| InvalidSetting::from_algo("td3", e))
-            }),
+            Algo::Ppo => self
+                .ppo
+                .as_ref()
+                .map_or(Ok(()), |c| c.validate().map_err(|e| e.under("ppo"))),
+            Algo::Sac => self
+                .sac
+                .as_ref()
+                .map_or(Ok(()), |c| c.validate().map_err(|e| e.under("sac"))),
+            Algo::Td3 => self
+                .td3
+                .as_ref()
+                .map_or(Ok(()), |c| c.validate().map_err(|e| e.under("td3"))),
         }
     }
 

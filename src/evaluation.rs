@@ -85,7 +85,10 @@ pub fn play_deterministic(
         let ended: Vec<Result<bool, EnvError>> = work
             .into_par_iter()
             .map(|(env, slot, action)| {
-                let before = slot.obs.clone();
+                if let Some(tr) = slot.trajectory.as_mut() {
+                    tr.obs.extend_from_slice(&slot.obs);
+                    tr.actions.extend_from_slice(action);
+                }
                 let t = env.step_into(action, &mut slot.obs)?;
                 let s = &mut slot.summary;
                 s.steps += 1;
@@ -95,8 +98,6 @@ pub fn play_deterministic(
                 s.final_distance = f64::from(t.info.goal_distance);
                 s.scored |= t.info.scored();
                 if let Some(tr) = slot.trajectory.as_mut() {
-                    tr.obs.extend_from_slice(&before);
-                    tr.actions.extend_from_slice(action);
                     tr.rewards.push(t.reward);
                 }
                 Ok(t.done())
@@ -118,7 +119,6 @@ pub fn play_deterministic(
                 next += 1;
             }
         }
-        debug_assert_eq!(obs_dim, envs[0].obs_dim());
     }
     Ok(done
         .into_iter()

@@ -48,8 +48,12 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), RunFileError> {
     std::fs::rename(&tmp, path).map_err(err)
 }
 
-/// Appends lines to a CSV file, writing the header first when the file is new.
+/// Appends lines to a CSV file, writing the header first when the file is new; no
+/// lines, no I/O (the training loop calls it every env step).
 pub fn append_csv(path: &Path, header: &str, lines: &[String]) -> Result<(), RunFileError> {
+    if lines.is_empty() {
+        return Ok(());
+    }
     let err = |source| RunFileError {
         path: path.to_path_buf(),
         source,

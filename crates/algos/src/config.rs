@@ -4,30 +4,9 @@
 use crate::schedule::LrSchedule;
 use foosball_nets::{Activation, AdamConfig};
 
-/// An invalid setting; `key` is its dotted path inside the algorithm's section.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{key}: {message}")]
-pub struct ConfigError {
-    /// Dotted key, e.g. `net.hidden`.
-    pub key: String,
-    /// What is wrong with its value.
-    pub message: String,
-}
-
-impl ConfigError {
-    /// An error for `key`.
-    pub fn new(key: impl Into<String>, message: impl Into<String>) -> Self {
-        Self {
-            key: key.into(),
-            message: message.into(),
-        }
-    }
-
-    /// The same error with `prefix.` put before its key.
-    pub fn under(self, prefix: &str) -> Self {
-        Self::new(format!("{prefix}.{}", self.key), self.message)
-    }
-}
+/// An invalid setting; `key` is its dotted path inside the algorithm's section (the
+/// environment's error type, shared by every configuration of the project).
+pub use foosball_env::ConfigError;
 
 /// Checks `ok`, else an error for `key`.
 pub(crate) fn ensure(ok: bool, key: &str, message: &str) -> Result<(), ConfigError> {

@@ -143,3 +143,13 @@ pub fn bellman_target(
 ) -> foosball_nets::Tensor<1> {
     rewards + dones.neg().add_scalar(1.0).mul_scalar(gamma) * next_value
 }
+
+/// `MSE(q1, y) + MSE(q2, y)`, one element: the twin critics' regression onto the target
+/// `y` (SB3 sums the two; SAC halves the sum).
+pub fn twin_mse(
+    q1: foosball_nets::Tensor<1>,
+    q2: foosball_nets::Tensor<1>,
+    target: foosball_nets::Tensor<1>,
+) -> foosball_nets::Tensor<1> {
+    (q1 - target.clone()).square().mean() + (q2 - target).square().mean()
+}

@@ -318,18 +318,20 @@ impl Ppo {
 
 /// `1 - Var(returns - values) / Var(returns)` (NaN when the returns are constant).
 pub fn explained_variance(values: &[f32], returns: &[f32]) -> f64 {
-    let var = |x: &mut dyn Iterator<Item = f64>| {
-        let v: Vec<f64> = x.collect();
-        let m = v.iter().sum::<f64>() / v.len() as f64;
-        v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / v.len() as f64
-    };
-    let residual = var(&mut values.iter().zip(returns).map(|(v, r)| f64::from(r - v)));
-    let total = var(&mut returns.iter().map(|&r| f64::from(r)));
+    let residual = variance(values.iter().zip(returns).map(|(v, r)| f64::from(r - v)));
+    let total = variance(returns.iter().map(|&r| f64::from(r)));
     if total == 0.0 {
         f64::NAN
     } else {
         1.0 - residual / total
     }
+}
+
+/// Population variance of `x`.
+fn variance(x: impl Iterator<Item = f64>) -> f64 {
+    let v: Vec<f64> = x.collect();
+    let m = v.iter().sum::<f64>() / v.len() as f64;
+    v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / v.len() as f64
 }
 
 impl Agent for Ppo {

@@ -12,7 +12,7 @@
 
 use crate::agent::{ActMode, AgentError, Metrics};
 use crate::config::{ConfigError, NetConfig, OffPolicyConfig, ensure};
-use crate::off_policy::{OffPolicy, OffPolicyLearner, bellman_target};
+use crate::off_policy::{OffPolicy, OffPolicyLearner, bellman_target, twin_mse};
 use crate::replay::ReplayBatch;
 use crate::tensors::{host, matrix, mean, standard_normal, vector};
 use burn::module::Module;
@@ -197,8 +197,7 @@ impl OffPolicyLearner for Td3 {
         let (q1, q2) = self
             .critic
             .forward(obs.clone(), matrix(&batch.actions, a, &dev));
-        let critic_loss =
-            (q1.clone() - target.clone()).square().mean() + (q2 - target).square().mean();
+        let critic_loss = twin_mse(q1.clone(), q2, target);
         let critic_loss_value = mean(critic_loss.clone().inner());
         let mut grads = critic_loss.backward();
         let critic_report = self

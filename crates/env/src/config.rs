@@ -18,11 +18,18 @@ pub struct ConfigError {
 }
 
 impl ConfigError {
-    fn new(key: &str, message: impl Into<String>) -> Self {
+    /// An error for the dotted `key`.
+    pub fn new(key: impl Into<String>, message: impl Into<String>) -> Self {
         Self {
-            key: key.to_owned(),
+            key: key.into(),
             message: message.into(),
         }
+    }
+
+    /// The same error with `prefix.` put before its key (for a section nested in a
+    /// larger configuration).
+    pub fn under(self, prefix: &str) -> Self {
+        Self::new(format!("{prefix}.{}", self.key), self.message)
     }
 }
 
