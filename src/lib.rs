@@ -7,12 +7,16 @@
 //! - [`evaluation`]: deterministic episodes on held-out seeds, played side by side;
 //! - [`metrics`]: the paper's test metrics with confidence intervals;
 //! - [`run_dir`]: the files of a run, written atomically;
+//! - [`run_log`]: training logs (CSV and TensorBoard);
+//! - [`checkpoint`]: resumable checkpoints at epoch ends;
 //! - [`train`]: the training loop shared by the three algorithms.
 
+pub mod checkpoint;
 pub mod config;
 pub mod evaluation;
 pub mod metrics;
 pub mod run_dir;
+pub mod run_log;
 pub mod train;
 
 pub use foosball_algos as algos;

@@ -48,8 +48,8 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), RunFileError> {
     std::fs::rename(&tmp, path).map_err(err)
 }
 
-/// Appends lines to a CSV file, writing the header first when the file is new; no
-/// lines, no I/O (the training loop calls it every env step).
+/// Appends lines to a CSV file, writing the header first when the file is new or empty;
+/// no lines, no I/O.
 pub fn append_csv(path: &Path, header: &str, lines: &[String]) -> Result<(), RunFileError> {
     if lines.is_empty() {
         return Ok(());
@@ -58,7 +58,7 @@ pub fn append_csv(path: &Path, header: &str, lines: &[String]) -> Result<(), Run
         path: path.to_path_buf(),
         source,
     };
-    let new = !path.exists();
+    let new = std::fs::metadata(path).map_or(true, |m| m.len() == 0);
     let mut file = std::fs::OpenOptions::new()
         .create(true)
         .append(true)

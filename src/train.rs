@@ -1,22 +1,24 @@
 //! The training loop shared by PPO, SAC and TD3: rollout workers, evaluation on a
-//! schedule counted in env steps, best and last networks, then the test phase.
+//! schedule counted in env steps, best and last networks, checkpoints at epoch ends
+//! (resumable), then the test phase.
 
+use crate::checkpoint::{self, CheckpointError, LoopState};
 use crate::config::{Algo, RunConfig};
 use crate::evaluation::{PlayedEpisode, play_deterministic};
 use crate::metrics::{EpisodeSummary, TestMetrics};
-use crate::run_dir::{RunFileError, append_csv, trajectories_bytes, write_atomic};
-use foosball_algos::{Agent, AgentError, Collector, Metrics, Ppo, Sac, Td3};
-use foosball_env::seeding::{EVAL_ENVS, LEARNER, TEST_ENVS, derive_seed};
-use foosball_env::{EnvError, FoosballEnv, VecEnv, VecEnvError, layout};
+use crate::run_dir::{RunFileError, trajectories_bytes, write_atomic};
+use crate::run_log::{CSV_FILES, RunLog, Speed};
+use foosball_algos::{Agent, AgentError, Collector, Ppo, Sac, Td3};
+use foosball_env::seeding::{EVAL_ENVS, LEARNER, TEST_ENVS, TRAIN_ENVS, derive_seed};
+use foosball_env::{EnvError, FoosballEnv, FoosballInfo, VecEnv, VecEnvError, layout};
 use foosball_nets::{Backend, BackendError, Device};
-use std::path::Path;
-use std::time::Instant;
+use std::path::{Path, PathBuf};
 
 /// Deterministic episodes played side by side in evaluations and tests (part of the
 /// protocol: it fixes the policy's batch shape).
 pub const EVAL_BATCH: usize = 10;
 
-/// Env steps between rows of `updates.csv` (metrics averaged over them).
+/// Env steps between rows of training scalars (metrics averaged over them).
 pub const LOG_EVERY: u64 = 1_000;
 
 /// Why a run stopped.
@@ -37,6 +39,12 @@ pub enum TrainError {
     /// The rayon pool could not be built.
     #[error("thread pool: {0}")]
     Threads(String),
+    /// A checkpoint could not be written or read.
+    #[error(transparent)]
+    Checkpoint(#[from] CheckpointError),
+    /// `--resume` on a directory without a checkpoint.
+    #[error("{0}: no checkpoint to resume from (none is written before the first epoch ends)")]
+    NoCheckpoint(PathBuf),
 }
 
 impl From<VecEnvError> for TrainError {
@@ -51,19 +59,42 @@ impl From<EnvError> for TrainError {
     }
 }
 
-/// What the loop reports after each evaluation.
-#[derive(Clone, Debug)]
+/// What the loop has just done, for progress displays.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Event {
+    /// A logging window ended ([`LOG_EVERY`] env steps or an epoch end).
+    Window(Speed),
+    /// An evaluation ended; its mean return and score rate.
+    Evaluation {
+        /// Mean return of the evaluation episodes.
+        mean_return: f64,
+        /// Share of evaluation episodes that scored.
+        score_rate: f64,
+    },
+    /// Epoch `n` ended and was checkpointed.
+    Checkpoint(u64),
+    /// The final test started.
+    Test,
+}
+
+/// Where the run stands when the loop reports.
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Progress {
     /// Env steps done.
     pub env_steps: u64,
     /// Env steps of the whole run.
     pub total_steps: u64,
-    /// Env steps per second since the start.
-    pub steps_per_second: f64,
-    /// Mean return of the last evaluation.
-    pub eval_return: f64,
-    /// Score rate of the last evaluation.
-    pub eval_score_rate: f64,
+    /// What just happened.
+    pub event: Event,
+}
+
+/// How a run begins.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Start {
+    /// From scratch; files of an earlier run in the directory are replaced.
+    Fresh,
+    /// From the directory's last checkpoint.
+    Resume,
 }
 
 /// The agent `config` asks for, its networks drawn from the learner stream.
@@ -139,14 +170,45 @@ pub fn write_test(dir: &Path, episodes: &[PlayedEpisode]) -> Result<TestMetrics,
     Ok(metrics)
 }
 
-/// Trains `config` into `run_dir` (which must exist), then tests the final networks.
-/// `report` is called after every evaluation.
+/// Seeds of the training envs from the start of epoch `epoch` (0-based) on: env `i`
+/// restarts from `derive_seed(seed, TRAIN_ENVS, epoch * n + i)` (epoch 0 is
+/// `VecEnv::reset(seed)`).
+pub fn restart_seeds(seed: u64, epoch: u64, n: usize) -> Vec<u64> {
+    (0..n as u64)
+        .map(|i| derive_seed(seed, TRAIN_ENVS, epoch * n as u64 + i))
+        .collect()
+}
+
+/// Removes what an earlier run left in `run_dir` (a fresh start with `--force`).
+fn clear_run_dir(run_dir: &Path) -> Result<(), TrainError> {
+    for dir in [
+        "checkpoint",
+        "checkpoint.old",
+        "checkpoint.tmp",
+        "best",
+        "last",
+        "test",
+        "tensorboard",
+    ] {
+        checkpoint::remove_dir(&run_dir.join(dir))?;
+    }
+    Ok(())
+}
+
+/// Trains `config` in `run_dir` (which must exist), then tests the final networks.
+///
+/// The loop: collect (VecEnv) -> store -> update, logging every [`LOG_EVERY`] env steps,
+/// evaluating every `eval_every` env steps (best networks kept in `best/`); at each epoch
+/// end the training envs restart (episodes still running are cut as truncations) and
+/// the networks (`last/`) and a checkpoint are written. `Start::Resume` goes on from the
+/// checkpoint, so a resumed run ends as the uninterrupted one would. `report` hears of
+/// every window, evaluation and checkpoint.
 pub fn train(
     config: &RunConfig,
     run_dir: &Path,
+    start: Start,
     mut report: impl FnMut(&Progress) + Send,
 ) -> Result<TestMetrics, TrainError> {
-    write_atomic(&run_dir.join("config.toml"), config.to_toml().as_bytes())?;
     let p = &config.protocol;
     let threads = match p.threads {
         0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
@@ -159,76 +221,102 @@ pub fn train(
     pool.install(|| {
         let device = device(config)?;
         let mut agent = build_agent(config, &device);
-        let envs = VecEnv::new(foosball_envs(config, p.envs)?, threads)?;
-        let mut collector = Collector::new(envs, p.seed);
-        let total = u64::from(p.epochs) * p.steps_per_epoch;
-        let (mut next_eval, mut next_log) = (p.eval_every, LOG_EVERY);
-        let mut best = f64::NEG_INFINITY;
-        let mut pending: Vec<Metrics> = Vec::new();
-        let start = Instant::now();
-        for epoch in 1..=u64::from(p.epochs) {
-            while agent.env_steps() < epoch * p.steps_per_epoch {
-                let progress = 1.0 - agent.env_steps() as f64 / total as f64;
-                let steps = agent.env_steps();
-                let mut episodes = Vec::new();
-                let update = collector.step(agent.as_mut(), progress, |_, e, info| {
-                    episodes.push(format!(
-                        "{},{},{},{}",
-                        steps,
-                        e.ret,
-                        e.len,
-                        u8::from(info.scored())
-                    ));
-                })?;
-                append_csv(
-                    &run_dir.join("episodes.csv"),
-                    "env_step,return,length,scored",
-                    &episodes,
-                )?;
-                pending.extend(update);
-                if agent.env_steps() >= next_log && !pending.is_empty() {
-                    let lines: Vec<String> = Metrics::mean(&pending)
-                        .0
-                        .iter()
-                        .map(|(name, v)| format!("{},{name},{v}", agent.env_steps()))
-                        .collect();
-                    append_csv(&run_dir.join("updates.csv"), "env_step,name,value", &lines)?;
-                    pending.clear();
-                    next_log += LOG_EVERY;
+        let state = match start {
+            Start::Resume => {
+                let dir = checkpoint::find(run_dir)
+                    .ok_or_else(|| TrainError::NoCheckpoint(run_dir.to_path_buf()))?;
+                checkpoint::load(&dir, agent.as_mut())?
+            }
+            Start::Fresh => {
+                clear_run_dir(run_dir)?;
+                write_atomic(&run_dir.join("config.toml"), config.to_toml().as_bytes())?;
+                LoopState {
+                    epoch: 0,
+                    next_eval: p.eval_every,
+                    next_log: LOG_EVERY,
+                    best: f64::NEG_INFINITY,
+                    log_bytes: vec![0; CSV_FILES.len()],
                 }
-                if agent.env_steps() >= next_eval {
+            }
+        };
+        let LoopState {
+            epoch: done,
+            mut next_eval,
+            mut next_log,
+            mut best,
+            ..
+        } = state;
+        let mut log = RunLog::open(
+            run_dir,
+            &state.log_bytes,
+            (start == Start::Resume).then_some(agent.env_steps()),
+            (agent.env_steps(), agent.gradient_steps()),
+        )?;
+        let n = p.envs;
+        let envs = VecEnv::new(foosball_envs(config, n)?, threads)?;
+        let mut collector = Collector::with_seeds(envs, &restart_seeds(p.seed, done, n));
+        let total = u64::from(p.epochs) * p.steps_per_epoch;
+        let progress = |env_steps, event| Progress {
+            env_steps,
+            total_steps: total,
+            event,
+        };
+        for epoch in done + 1..=u64::from(p.epochs) {
+            let end = epoch * p.steps_per_epoch;
+            while agent.env_steps() < end {
+                let steps = agent.env_steps();
+                let remaining = 1.0 - steps as f64 / total as f64;
+                let on_episode = |_, e, info: &FoosballInfo| log.episode(steps, e, info.scored());
+                let update = if steps + n as u64 >= end {
+                    let seeds = restart_seeds(p.seed, epoch, n);
+                    collector.step_then_restart(agent.as_mut(), remaining, &seeds, on_episode)
+                } else {
+                    collector.step(agent.as_mut(), remaining, on_episode)
+                }?;
+                if let Some(m) = update {
+                    log.update(m);
+                }
+                let steps = agent.env_steps();
+                if steps >= next_log {
+                    next_log += LOG_EVERY;
+                    if let Some(speed) = log.end_window(steps, agent.gradient_steps())? {
+                        report(&progress(steps, Event::Window(speed)));
+                    }
+                }
+                if steps >= next_eval {
                     next_eval += p.eval_every;
                     let played = play(agent.as_mut(), config, EVAL_ENVS, p.eval_episodes, false)?;
                     let m = TestMetrics::from_episodes(
                         &played.iter().map(|e| e.summary).collect::<Vec<_>>(),
                     );
-                    let line = format!(
-                        "{},{},{},{}",
-                        agent.env_steps(),
-                        m.mean_return.mean,
-                        m.score_rate.mean,
-                        m.mean_goal_distance.mean
-                    );
-                    append_csv(
-                        &run_dir.join("evaluations.csv"),
-                        "env_step,mean_return,score_rate,mean_goal_distance",
-                        &[line],
-                    )?;
+                    log.evaluation(steps, &m)?;
                     if m.mean_return.mean > best {
                         best = m.mean_return.mean;
                         save(agent.as_ref(), &run_dir.join("best"))?;
                     }
-                    report(&Progress {
-                        env_steps: agent.env_steps(),
-                        total_steps: total,
-                        steps_per_second: agent.env_steps() as f64 / start.elapsed().as_secs_f64(),
-                        eval_return: m.mean_return.mean,
-                        eval_score_rate: m.score_rate.mean,
-                    });
+                    let event = Event::Evaluation {
+                        mean_return: m.mean_return.mean,
+                        score_rate: m.score_rate.mean,
+                    };
+                    report(&progress(steps, event));
                 }
             }
+            let steps = agent.env_steps();
+            if let Some(speed) = log.end_window(steps, agent.gradient_steps())? {
+                report(&progress(steps, Event::Window(speed)));
+            }
             save(agent.as_ref(), &run_dir.join("last"))?;
+            let state = LoopState {
+                epoch,
+                next_eval,
+                next_log,
+                best,
+                log_bytes: log.csv_bytes()?,
+            };
+            checkpoint::write(run_dir, agent.as_ref(), &state)?;
+            report(&progress(steps, Event::Checkpoint(epoch)));
         }
+        report(&progress(agent.env_steps(), Event::Test));
         let played = play(agent.as_mut(), config, TEST_ENVS, p.test_episodes, true)?;
         write_test(&run_dir.join("test"), &played)
     })

@@ -4,18 +4,11 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+mod common;
+
 fn tiny_config(dir: &Path, algo: &str) -> PathBuf {
-    let section = match algo {
-        "ppo" => "[ppo]\nn_steps = 64\nbatch_size = 32\nn_epochs = 2\n[ppo.net]\nhidden = [16]\n",
-        _ => "[ALGO.net]\nhidden = [16]\n[ALGO.off_policy]\nbuffer_size = 1000\nlearning_starts = 50\nbatch_size = 32\n",
-    }
-    .replace("ALGO", algo);
-    let text = format!(
-        "algo = \"{algo}\"\n[protocol]\nseed = 3\nepochs = 2\nsteps_per_epoch = 150\neval_every = 100\n\
-         eval_episodes = 2\ntest_episodes = 3\nenvs = 2\n[env]\nmax_episode_steps = 30\n{section}"
-    );
     let path = dir.join(format!("{algo}.toml"));
-    std::fs::write(&path, text).unwrap();
+    std::fs::write(&path, common::tiny_config_text(algo, 2, 150)).unwrap();
     path
 }
 
@@ -26,12 +19,7 @@ fn train(args: &[&str]) -> Output {
         .unwrap()
 }
 
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("foosball-train-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+use common::scratch;
 
 fn run(config: &Path, out: &Path, threads: &str) -> String {
     let o = train(&[
@@ -75,11 +63,87 @@ fn each_algorithm_trains_evaluates_and_tests_reproducibly() {
         // Evaluations every 100 of 300 env steps.
         let evals = std::fs::read_to_string(run_dir.join("evaluations.csv")).unwrap();
         assert_eq!(evals.lines().count(), 1 + 3, "{evals}");
+        let tags = tensorboard_tags(&run_dir.join("tensorboard"));
+        for tag in [
+            "eval/mean_return",
+            "rollout/ep_return_mean",
+            "time/updates_per_second",
+        ] {
+            assert!(
+                tags.iter().any(|t| t == tag),
+                "{algo}: no {tag} in {tags:?}"
+            );
+        }
+        let scalars = std::fs::read_to_string(run_dir.join("scalars.csv")).unwrap();
+        for tag in &tags {
+            assert!(
+                scalars.contains(&format!(",{tag},")),
+                "{algo}: {tag} not in scalars.csv"
+            );
+        }
         let traj = std::fs::read(run_dir.join("test/trajectories.bin")).unwrap();
         assert_eq!(&traj[..4], b"FSBT");
         assert_eq!(u64::from_le_bytes(traj[16..24].try_into().unwrap()), 3);
     }
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The length-delimited fields of a protobuf message as `(field number, bytes)`.
+fn proto_fields(mut data: &[u8]) -> Vec<(u64, &[u8])> {
+    fn varint(data: &mut &[u8]) -> u64 {
+        let mut v = 0;
+        for shift in (0..64).step_by(7) {
+            let b = data[0];
+            *data = &data[1..];
+            v |= u64::from(b & 0x7f) << shift;
+            if b < 0x80 {
+                break;
+            }
+        }
+        v
+    }
+    let mut out = Vec::new();
+    while !data.is_empty() {
+        let key = varint(&mut data);
+        match key & 7 {
+            0 => drop(varint(&mut data)),
+            1 => data = &data[8..],
+            5 => data = &data[4..],
+            2 => {
+                let n = varint(&mut data) as usize;
+                out.push((key >> 3, &data[..n]));
+                data = &data[n..];
+            }
+            t => panic!("wire type {t}"),
+        }
+    }
+    out
+}
+
+/// The scalar tags in the TensorBoard event files of `dir`, read through their record
+/// framing (`u64` length, `u32` CRC, data, `u32` CRC) and `Event.summary.value.tag`.
+fn tensorboard_tags(dir: &Path) -> Vec<String> {
+    let mut tags = Vec::new();
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let bytes = std::fs::read(entry.unwrap().path()).unwrap();
+        let mut rest = bytes.as_slice();
+        while !rest.is_empty() {
+            let len = u64::from_le_bytes(rest[..8].try_into().unwrap()) as usize;
+            let event = &rest[12..12 + len];
+            rest = &rest[12 + len + 4..];
+            for (_, summary) in proto_fields(event).into_iter().filter(|f| f.0 == 5) {
+                for (_, value) in proto_fields(summary) {
+                    for (_, tag) in proto_fields(value).into_iter().filter(|f| f.0 == 1) {
+                        let tag = String::from_utf8(tag.to_vec()).unwrap();
+                        if !tags.contains(&tag) {
+                            tags.push(tag);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    tags
 }
 
 fn refused(args: &[&str]) -> String {

@@ -1,9 +1,11 @@
 //! `train`: trains PPO, SAC or TD3 on the foosball table with a run configuration
-//! (`configs/<algo>.toml` unless `--config` is given), then tests the final networks.
+//! (`configs/<algo>.toml` unless `--config` is given), then tests the final networks;
+//! `train --resume RUN` goes on from a run's last checkpoint.
 
 use clap::Parser;
 use foosball_rl::config::{Algo, RunConfig};
-use foosball_rl::train::{Progress, train};
+use foosball_rl::train::{Event, Progress, Start, train};
+use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Duration;
@@ -43,9 +45,15 @@ struct Args {
     /// Run directory (default `runs/<algo>-seed<seed>`).
     #[arg(long)]
     out: Option<PathBuf>,
-    /// Write into a run directory that already holds a run.
+    /// Write into a run directory that already holds a run (replacing it).
     #[arg(long)]
     force: bool,
+    /// Go on from the last checkpoint of this run directory (its own `config.toml`;
+    /// only `--threads` may be changed, which does not change the results).
+    #[arg(long, value_name = "RUN", conflicts_with_all = [
+        "algo", "config", "seed", "epochs", "steps_per_epoch", "hidden", "envs", "out", "force"
+    ])]
+    resume: Option<PathBuf>,
 }
 
 fn config(args: &Args) -> Result<RunConfig, String> {
@@ -99,33 +107,110 @@ fn run_dir(args: &Args, c: &RunConfig) -> Result<PathBuf, String> {
     Ok(dir)
 }
 
-fn show(p: &Progress) {
-    let done = p.env_steps as f64 / p.total_steps as f64;
-    let eta = Duration::from_secs_f64(
-        (p.total_steps - p.env_steps.min(p.total_steps)) as f64 / p.steps_per_second.max(1e-9),
-    );
-    println!(
-        "[{:>9}/{} {:5.1}%] {:7.0} steps/s  ETA {:>5} min  eval return {:9.1}  score rate {:.2}",
-        p.env_steps,
-        p.total_steps,
-        100.0 * done,
-        p.steps_per_second,
-        eta.as_secs() / 60,
-        p.eval_return,
-        p.eval_score_rate
-    );
+/// Shows training progress: a bar on a terminal (steps/s, updates/s, ETA, last
+/// evaluation), and a line per evaluation and checkpoint in any case.
+struct Display {
+    bar: ProgressBar,
+    speed: String,
+    eval: String,
+}
+
+impl Display {
+    fn new(total: u64) -> Self {
+        let bar = ProgressBar::new(total).with_style(
+            ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {msg}")
+                .expect("valid template")
+                .progress_chars("=> "),
+        );
+        Self {
+            bar,
+            speed: String::new(),
+            eval: "no evaluation yet".into(),
+        }
+    }
+
+    fn line(&self, text: String) {
+        if self.bar.is_hidden() {
+            println!("{text}");
+        } else {
+            self.bar.println(text);
+        }
+    }
+
+    fn show(&mut self, p: &Progress) {
+        self.bar.set_position(p.env_steps);
+        match p.event {
+            Event::Window(s) => {
+                let left = p.total_steps.saturating_sub(p.env_steps) as f64;
+                let eta = Duration::from_secs_f64(left / s.steps_per_second.max(1e-9));
+                self.speed = format!(
+                    "{:.0} steps/s {:.1} updates/s ETA {}",
+                    s.steps_per_second,
+                    s.updates_per_second,
+                    hms(eta)
+                );
+            }
+            Event::Evaluation {
+                mean_return,
+                score_rate,
+            } => {
+                self.eval = format!("eval return {mean_return:.1} score rate {score_rate:.2}");
+                self.line(format!(
+                    "[{:>9}/{}] {}  {}",
+                    p.env_steps, p.total_steps, self.eval, self.speed
+                ));
+            }
+            Event::Checkpoint(epoch) => self.line(format!(
+                "[{:>9}/{}] epoch {epoch} done, checkpoint written",
+                p.env_steps, p.total_steps
+            )),
+            Event::Test => {
+                self.bar.finish_and_clear();
+                println!("testing the final networks");
+            }
+        }
+        self.bar
+            .set_message(format!("{} | {}", self.speed, self.eval));
+    }
+}
+
+fn hms(d: Duration) -> String {
+    let s = d.as_secs();
+    format!("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
+}
+
+/// The configuration and directory of a resumed run.
+fn resumed(dir: &Path, threads: Option<usize>) -> Result<RunConfig, String> {
+    let path = dir.join("config.toml");
+    if !path.is_file() {
+        return Err(format!(
+            "{}: not a run directory (no config.toml)",
+            dir.display()
+        ));
+    }
+    let mut c = RunConfig::load(&path).map_err(|e| e.to_string())?;
+    c.protocol.threads = threads.unwrap_or(c.protocol.threads);
+    Ok(c)
 }
 
 fn main() -> ExitCode {
     let args = Args::parse();
-    let result = config(&args).and_then(|c| {
-        let dir = run_dir(&args, &c)?;
+    let setup = match &args.resume {
+        Some(dir) => resumed(dir, args.threads).map(|c| (c, dir.clone(), Start::Resume)),
+        None => config(&args).and_then(|c| {
+            let dir = run_dir(&args, &c)?;
+            Ok((c, dir, Start::Fresh))
+        }),
+    };
+    let result = setup.and_then(|(c, dir, start)| {
         println!(
             "# effective configuration ({})\n{}",
             dir.join("config.toml").display(),
             c.to_toml()
         );
-        let metrics = train(&c, &dir, show).map_err(|e| e.to_string())?;
+        let total = u64::from(c.protocol.epochs) * c.protocol.steps_per_epoch;
+        let mut display = Display::new(total);
+        let metrics = train(&c, &dir, start, |p| display.show(p)).map_err(|e| e.to_string())?;
         println!(
             "\n{}\nresults in {}",
             metrics.to_markdown(),

@@ -1,4 +1,5 @@
-//! Helpers shared by the integration tests.
+//! Helpers shared by the integration tests (each test crate uses some of them).
+#![allow(dead_code)]
 
 use std::path::PathBuf;
 
@@ -18,4 +19,27 @@ pub fn reference_file(name: &str) -> Option<PathBuf> {
     );
     eprintln!("skipping: reference file {} is not here", path.display());
     None
+}
+
+/// A run configuration for `algo` small enough to train in about a second: 16-wide
+/// networks, `epochs` epochs of `steps_per_epoch` env steps on two envs, evaluations every
+/// 100 steps on 2 episodes, a 3-episode test.
+pub fn tiny_config_text(algo: &str, epochs: u32, steps_per_epoch: u64) -> String {
+    let section = match algo {
+        "ppo" => "[ppo]\nn_steps = 64\nbatch_size = 32\nn_epochs = 2\n[ppo.net]\nhidden = [16]\n",
+        _ => "[ALGO.net]\nhidden = [16]\n[ALGO.off_policy]\nbuffer_size = 1000\nlearning_starts = 50\nbatch_size = 32\n",
+    }
+    .replace("ALGO", algo);
+    format!(
+        "algo = \"{algo}\"\n[protocol]\nseed = 3\nepochs = {epochs}\nsteps_per_epoch = {steps_per_epoch}\n\
+         eval_every = 100\neval_episodes = 2\ntest_episodes = 3\nenvs = 2\n[env]\nmax_episode_steps = 30\n{section}"
+    )
+}
+
+/// An empty scratch directory for test `name`.
+pub fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("foosball-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
 }

@@ -1,5 +1,6 @@
 //! The one shape every algorithm has, so one training loop drives PPO, SAC and TD3.
 
+use foosball_nets::{Snapshot, SnapshotError};
 use std::path::Path;
 
 /// How to pick actions.
@@ -111,8 +112,16 @@ pub trait Agent {
     fn update(&mut self, progress_remaining: f64) -> Option<Metrics>;
     /// Transitions observed so far.
     fn env_steps(&self) -> u64;
+    /// Gradient steps taken so far (critic steps for SAC and TD3, minibatch steps for
+    /// PPO).
+    fn gradient_steps(&self) -> u64;
     /// Writes the networks (Burn records) into `dir`.
     fn save(&self, dir: &Path) -> Result<(), AgentError>;
     /// Reads the networks written by `save` from `dir`.
     fn load(&mut self, dir: &Path) -> Result<(), AgentError>;
+    /// Adds everything but the networks that training needs to go on exactly where it
+    /// stands: optimiser moments, replay or rollout buffer, RNG position, counters.
+    fn save_state<'a>(&'a self, snap: &mut Snapshot<'a>);
+    /// Restores what [`Agent::save_state`] stored (the networks come from `load`).
+    fn load_state(&mut self, snap: &Snapshot<'_>) -> Result<(), SnapshotError>;
 }

@@ -1,5 +1,7 @@
 //! PPO's rollout storage and generalised advantage estimation (SB3's `RolloutBuffer`).
 
+use foosball_nets::{Snapshot, SnapshotError};
+
 /// `[n_steps, n_envs]` advantages and returns from a rollout, row-major (step-major).
 ///
 /// `rewards`, `values`, `episode_starts` are `[n_steps * n_envs]`; `episode_starts[t, e]`
@@ -76,12 +78,57 @@ impl RolloutBuffer {
 
     /// Forgets every row, keeping the allocations.
     pub fn clear(&mut self) {
-        self.obs.clear();
-        self.actions.clear();
-        self.rewards.clear();
-        self.episode_starts.clear();
-        self.values.clear();
-        self.log_probs.clear();
+        for column in self.columns_mut() {
+            column.clear();
+        }
+    }
+
+    /// The columns, in [`RolloutBuffer::COLUMNS`] order.
+    fn columns(&self) -> [&[f32]; 6] {
+        [
+            &self.obs,
+            &self.actions,
+            &self.rewards,
+            &self.episode_starts,
+            &self.values,
+            &self.log_probs,
+        ]
+    }
+
+    fn columns_mut(&mut self) -> [&mut Vec<f32>; 6] {
+        [
+            &mut self.obs,
+            &mut self.actions,
+            &mut self.rewards,
+            &mut self.episode_starts,
+            &mut self.values,
+            &mut self.log_probs,
+        ]
+    }
+
+    /// The columns' names in saved state.
+    const COLUMNS: [&str; 6] = [
+        "obs",
+        "actions",
+        "rewards",
+        "episode_starts",
+        "values",
+        "log_probs",
+    ];
+
+    /// Stores the rows collected so far under `prefix` (borrowed, not copied).
+    pub fn save_state<'a>(&'a self, snap: &mut Snapshot<'a>, prefix: &str) {
+        for (name, column) in Self::COLUMNS.iter().zip(self.columns()) {
+            snap.put_f32(format!("{prefix}.{name}"), column);
+        }
+    }
+
+    /// Restores what [`RolloutBuffer::save_state`] stored under `prefix`.
+    pub fn load_state(&mut self, snap: &Snapshot<'_>, prefix: &str) -> Result<(), SnapshotError> {
+        for (name, column) in Self::COLUMNS.iter().zip(self.columns_mut()) {
+            *column = snap.f32s(&format!("{prefix}.{name}"))?.to_vec();
+        }
+        Ok(())
     }
 }
 

@@ -6,6 +6,7 @@ use crate::agent::{ActMode, Agent, AgentError, Experience, Metrics};
 use crate::config::OffPolicyConfig;
 use crate::replay::{ReplayBatch, ReplayBuffer};
 use crate::schedule::LrSchedule;
+use foosball_nets::{Snapshot, SnapshotError};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use std::path::Path;
@@ -17,10 +18,16 @@ pub trait OffPolicyLearner {
     fn policy_act(&mut self, obs: &[f32], mode: ActMode, rng: &mut ChaCha8Rng) -> Vec<f32>;
     /// One gradient step on a sampled minibatch with learning rate `lr`.
     fn train_step(&mut self, batch: &ReplayBatch, lr: f64, rng: &mut ChaCha8Rng) -> Metrics;
+    /// Gradient steps taken so far.
+    fn gradient_steps(&self) -> u64;
     /// Writes the networks into `dir`.
     fn save(&self, dir: &Path) -> Result<(), AgentError>;
     /// Reads the networks from `dir`.
     fn load(&mut self, dir: &Path) -> Result<(), AgentError>;
+    /// Adds the optimiser states and counters (see [`Agent::save_state`]).
+    fn save_state<'a>(&'a self, snap: &mut Snapshot<'a>);
+    /// Restores what `save_state` stored.
+    fn load_state(&mut self, snap: &Snapshot<'_>) -> Result<(), SnapshotError>;
 }
 
 /// An off-policy agent: a learner plus its replay buffer and schedule.
@@ -125,12 +132,32 @@ impl<L: OffPolicyLearner> Agent for OffPolicy<L> {
         self.env_steps
     }
 
+    fn gradient_steps(&self) -> u64 {
+        self.learner.gradient_steps()
+    }
+
     fn save(&self, dir: &Path) -> Result<(), AgentError> {
         self.learner.save(dir)
     }
 
     fn load(&mut self, dir: &Path) -> Result<(), AgentError> {
         self.learner.load(dir)
+    }
+
+    fn save_state<'a>(&'a self, snap: &mut Snapshot<'a>) {
+        snap.put_rng("agent.rng", &self.rng);
+        snap.put_u64("agent.env_steps", self.env_steps);
+        snap.put_u64("agent.steps_since_train", self.steps_since_train);
+        self.buffer.save_state(snap, "replay");
+        self.learner.save_state(snap);
+    }
+
+    fn load_state(&mut self, snap: &Snapshot<'_>) -> Result<(), SnapshotError> {
+        self.rng = snap.rng("agent.rng")?;
+        self.env_steps = snap.u64("agent.env_steps")?;
+        self.steps_since_train = snap.u64("agent.steps_since_train")?;
+        self.buffer.load_state(snap, "replay")?;
+        self.learner.load_state(snap)
     }
 }
 

@@ -15,7 +15,10 @@ use crate::tensors::{host, matrix, mean, standard_normal, vector};
 use burn::module::Module;
 use foosball_nets::distributions::diag_gaussian_log_prob;
 use foosball_nets::store::{load_module, save_module};
-use foosball_nets::{Activation, Adam, AdamConfig, Device, GaussianPolicy, Tensor, ValueCritic};
+use foosball_nets::{
+    Activation, Adam, AdamConfig, Device, GaussianPolicy, Snapshot, SnapshotError, Tensor,
+    ValueCritic,
+};
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
@@ -426,6 +429,10 @@ impl Agent for Ppo {
         self.env_steps
     }
 
+    fn gradient_steps(&self) -> u64 {
+        self.optim.steps()
+    }
+
     fn save(&self, dir: &Path) -> Result<(), AgentError> {
         save_module(&self.model, &dir.join("actor_critic.bpk"))?;
         Ok(())
@@ -433,6 +440,28 @@ impl Agent for Ppo {
 
     fn load(&mut self, dir: &Path) -> Result<(), AgentError> {
         self.model = load_module(self.model.clone(), &dir.join("actor_critic.bpk"))?;
+        Ok(())
+    }
+
+    fn save_state<'a>(&'a self, snap: &mut Snapshot<'a>) {
+        self.optim.save_state(snap, "ppo.adam");
+        snap.put_rng("agent.rng", &self.rng);
+        snap.put_u64("agent.env_steps", self.env_steps);
+        self.rollout.save_state(snap, "rollout");
+        snap.put_f32("ppo.episode_starts", &self.episode_starts[..]);
+        snap.put_f32("ppo.last_obs", &self.last_obs[..]);
+        snap.put_f32("ppo.last_dones", &self.last_dones[..]);
+    }
+
+    fn load_state(&mut self, snap: &Snapshot<'_>) -> Result<(), SnapshotError> {
+        self.optim.load_state(snap, "ppo.adam", &self.device)?;
+        self.rng = snap.rng("agent.rng")?;
+        self.env_steps = snap.u64("agent.env_steps")?;
+        self.rollout.load_state(snap, "rollout")?;
+        self.episode_starts = snap.f32s("ppo.episode_starts")?.to_vec();
+        self.last_obs = snap.f32s("ppo.last_obs")?.to_vec();
+        self.last_dones = snap.f32s("ppo.last_dones")?.to_vec();
+        self.pending = None;
         Ok(())
     }
 }

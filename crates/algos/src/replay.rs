@@ -1,5 +1,6 @@
 //! The replay buffer shared by SAC and TD3: a pre-allocated ring of flat `f32` rows.
 
+use foosball_nets::{Snapshot, SnapshotError};
 use rand::Rng;
 
 /// One uniformly sampled minibatch, row-major: `obs`/`next_obs` `[batch, obs_dim]`,
@@ -98,6 +99,58 @@ impl ReplayBuffer {
         self.len = (self.len + 1).min(self.capacity);
     }
 
+    /// Stores the filled rows and the write position under `prefix` (borrowed, not
+    /// copied; rows never written are left out).
+    pub fn save_state<'a>(&'a self, snap: &mut Snapshot<'a>, prefix: &str) {
+        let (o, a, n) = (self.obs_dim, self.action_dim, self.len);
+        snap.put_u64(format!("{prefix}.len"), n as u64);
+        snap.put_u64(format!("{prefix}.pos"), self.pos as u64);
+        snap.put_f32(format!("{prefix}.obs"), &self.obs[..n * o]);
+        snap.put_f32(format!("{prefix}.next_obs"), &self.next_obs[..n * o]);
+        snap.put_f32(format!("{prefix}.actions"), &self.actions[..n * a]);
+        snap.put_f32(format!("{prefix}.rewards"), &self.rewards[..n]);
+        snap.put_bools(format!("{prefix}.terminated"), &self.terminated[..n]);
+        snap.put_bools(format!("{prefix}.timeouts"), &self.timeouts[..n]);
+    }
+
+    /// Restores what [`ReplayBuffer::save_state`] stored under `prefix` into this buffer
+    /// (same capacity and widths).
+    pub fn load_state(&mut self, snap: &Snapshot<'_>, prefix: &str) -> Result<(), SnapshotError> {
+        let (o, a) = (self.obs_dim, self.action_dim);
+        let key = |k: &str| format!("{prefix}.{k}");
+        let n = snap.u64(&key("len"))? as usize;
+        let pos = snap.u64(&key("pos"))? as usize;
+        if n > self.capacity || pos >= self.capacity || (n < self.capacity && pos != n) {
+            return Err(SnapshotError::Entry {
+                name: key("len"),
+                message: format!(
+                    "{n} rows at position {pos} do not fit a buffer of {} rows",
+                    self.capacity
+                ),
+            });
+        }
+        let flags = |k: &str| -> Result<Vec<bool>, SnapshotError> {
+            let v = snap.bools(&key(k))?;
+            if v.len() != n {
+                return Err(SnapshotError::Entry {
+                    name: key(k),
+                    message: format!("holds {} values, expected {n}", v.len()),
+                });
+            }
+            Ok(v)
+        };
+        let (terminated, timeouts) = (flags("terminated")?, flags("timeouts")?);
+        self.obs[..n * o].copy_from_slice(snap.f32s_of_len(&key("obs"), n * o)?);
+        self.next_obs[..n * o].copy_from_slice(snap.f32s_of_len(&key("next_obs"), n * o)?);
+        self.actions[..n * a].copy_from_slice(snap.f32s_of_len(&key("actions"), n * a)?);
+        self.rewards[..n].copy_from_slice(snap.f32s_of_len(&key("rewards"), n)?);
+        self.terminated[..n].copy_from_slice(&terminated);
+        self.timeouts[..n].copy_from_slice(&timeouts);
+        self.len = n;
+        self.pos = pos;
+        Ok(())
+    }
+
     /// `batch_size` rows drawn uniformly with replacement from those stored.
     pub fn sample(&self, batch_size: usize, rng: &mut impl Rng) -> ReplayBatch {
         assert!(!self.is_empty(), "sampling an empty replay buffer");
@@ -164,6 +217,30 @@ mod tests {
             assert_eq!(batch.obs[2 * k], *r, "rows stay aligned across arrays");
             assert_eq!(batch.actions[k], r / 10.0);
             assert_eq!(batch.next_obs[2 * k], r + 1.0);
+        }
+    }
+
+    #[test]
+    fn a_restored_buffer_samples_and_wraps_like_the_original() {
+        for rows in [2, 5] {
+            let mut buffer = ReplayBuffer::new(3, 2, 1);
+            for k in 0..rows {
+                row(&mut buffer, k, k == 1, k == 0);
+            }
+            let mut snap = Snapshot::new();
+            buffer.save_state(&mut snap, "replay");
+            let mut restored = ReplayBuffer::new(3, 2, 1);
+            restored.load_state(&snap, "replay").unwrap();
+            let mut small = ReplayBuffer::new(2, 2, 1);
+            let err = small.load_state(&snap, "replay").unwrap_err().to_string();
+            assert!(
+                err.contains("replay.len") && err.contains("2 rows"),
+                "{err}"
+            );
+            assert_eq!(restored, buffer);
+            row(&mut buffer, 9, false, false);
+            row(&mut restored, 9, false, false);
+            assert_eq!(restored, buffer);
         }
     }
 

@@ -26,6 +26,16 @@ impl<E: Env> Collector<E> {
     /// Resets every env from `seed` (see `VecEnv::reset`).
     pub fn new(mut envs: VecEnv<E>, seed: u64) -> Self {
         let obs = envs.reset(seed).to_vec();
+        Self::started(envs, obs)
+    }
+
+    /// Resets env `i` with `seeds[i]`.
+    pub fn with_seeds(mut envs: VecEnv<E>, seeds: &[u64]) -> Self {
+        let obs = envs.reset_with_seeds(seeds).to_vec();
+        Self::started(envs, obs)
+    }
+
+    fn started(envs: VecEnv<E>, obs: Vec<f32>) -> Self {
         let n = envs.num_envs();
         Self {
             envs,
@@ -46,35 +56,76 @@ impl<E: Env> Collector<E> {
         &mut self,
         agent: &mut dyn Agent,
         progress_remaining: f64,
+        on_episode: impl FnMut(usize, Episode, &E::Info),
+    ) -> Result<Option<Metrics>, VecEnvError> {
+        self.step_inner(agent, progress_remaining, None, on_episode)
+    }
+
+    /// [`Collector::step`], then every episode still running is cut (a truncation: the
+    /// learner bootstraps from where it stood) and env `i` starts anew from `seeds[i]`.
+    /// Training runs do this at checkpoints, so a resumed run needs no physics state.
+    pub fn step_then_restart(
+        &mut self,
+        agent: &mut dyn Agent,
+        progress_remaining: f64,
+        seeds: &[u64],
+        on_episode: impl FnMut(usize, Episode, &E::Info),
+    ) -> Result<Option<Metrics>, VecEnvError> {
+        self.step_inner(agent, progress_remaining, Some(seeds), on_episode)
+    }
+
+    fn step_inner(
+        &mut self,
+        agent: &mut dyn Agent,
+        progress_remaining: f64,
+        restart: Option<&[u64]>,
         mut on_episode: impl FnMut(usize, Episode, &E::Info),
     ) -> Result<Option<Metrics>, VecEnvError> {
         let actions = agent.act(&self.obs, ActMode::Explore);
+        let od = self.envs.obs_dim();
         let step = self.envs.step(&actions)?;
         let n = step.rewards.len();
+        let rewards = step.rewards.to_vec();
+        let terminated = step.terminated.to_vec();
+        let mut truncated = step.truncated.to_vec();
+        let infos = step.infos.to_vec();
+        let mut final_obs: Vec<Option<Vec<f32>>> = (0..n)
+            .map(|i| step.final_observation(i).map(<[f32]>::to_vec))
+            .collect();
+        let mut next_obs = step.obs.to_vec();
+        if let Some(seeds) = restart {
+            for i in 0..n {
+                if final_obs[i].is_none() {
+                    truncated[i] = true;
+                    final_obs[i] = Some(next_obs[i * od..(i + 1) * od].to_vec());
+                }
+            }
+            next_obs = self.envs.reset_with_seeds(seeds).to_vec();
+        }
         let experience = Experience {
             obs: &self.obs,
             actions: &actions,
-            rewards: step.rewards,
-            next_obs: step.obs,
-            final_obs: (0..n).map(|i| step.final_observation(i)).collect(),
-            terminated: step.terminated,
-            truncated: step.truncated,
+            rewards: &rewards,
+            next_obs: &next_obs,
+            final_obs: final_obs.iter().map(Option::as_deref).collect(),
+            terminated: &terminated,
+            truncated: &truncated,
         };
         agent.observe(&experience);
         for i in 0..n {
-            self.returns[i] += f64::from(step.rewards[i]);
+            self.returns[i] += f64::from(rewards[i]);
             self.lengths[i] += 1;
-            if step.terminated[i] || step.truncated[i] {
+            if final_obs[i].is_some() {
                 let episode = Episode {
                     ret: self.returns[i],
                     len: self.lengths[i],
                 };
-                on_episode(i, episode, &step.infos[i]);
+                on_episode(i, episode, &infos[i]);
                 self.returns[i] = 0.0;
                 self.lengths[i] = 0;
             }
         }
-        self.obs.copy_from_slice(step.obs);
+        self.obs = next_obs;
         Ok(agent.update(progress_remaining))
     }
 }

@@ -16,7 +16,9 @@ use crate::replay::ReplayBatch;
 use crate::tensors::{host, matrix, mean, standard_normal, vector};
 use burn::module::{Module, Param};
 use foosball_nets::store::{load_module, save_module};
-use foosball_nets::{Adam, Device, SquashedGaussianActor, Tensor, TwinQ, polyak_update};
+use foosball_nets::{
+    Adam, Device, Snapshot, SnapshotError, SquashedGaussianActor, Tensor, TwinQ, polyak_update,
+};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::path::Path;
@@ -300,6 +302,10 @@ impl OffPolicyLearner for Sac {
         ])
     }
 
+    fn gradient_steps(&self) -> u64 {
+        self.gradient_steps
+    }
+
     fn save(&self, dir: &Path) -> Result<(), AgentError> {
         save_module(&self.actor, &dir.join("actor.bpk"))?;
         save_module(&self.critic, &dir.join("critic.bpk"))?;
@@ -314,6 +320,24 @@ impl OffPolicyLearner for Sac {
         self.critic_target =
             load_module(self.critic_target.clone(), &dir.join("critic_target.bpk"))?;
         self.temperature = load_module(self.temperature.clone(), &dir.join("temperature.bpk"))?;
+        Ok(())
+    }
+
+    fn save_state<'a>(&'a self, snap: &mut Snapshot<'a>) {
+        self.actor_optim.save_state(snap, "sac.actor_adam");
+        self.critic_optim.save_state(snap, "sac.critic_adam");
+        self.temperature_optim
+            .save_state(snap, "sac.temperature_adam");
+        snap.put_u64("sac.gradient_steps", self.gradient_steps);
+    }
+
+    fn load_state(&mut self, snap: &Snapshot<'_>) -> Result<(), SnapshotError> {
+        let d = &self.device;
+        self.actor_optim.load_state(snap, "sac.actor_adam", d)?;
+        self.critic_optim.load_state(snap, "sac.critic_adam", d)?;
+        self.temperature_optim
+            .load_state(snap, "sac.temperature_adam", d)?;
+        self.gradient_steps = snap.u64("sac.gradient_steps")?;
         Ok(())
     }
 }

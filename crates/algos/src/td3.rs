@@ -17,7 +17,9 @@ use crate::replay::ReplayBatch;
 use crate::tensors::{host, matrix, mean, standard_normal, vector};
 use burn::module::Module;
 use foosball_nets::store::{load_module, save_module};
-use foosball_nets::{Adam, DeterministicActor, Device, Tensor, TwinQ, polyak_update};
+use foosball_nets::{
+    Adam, DeterministicActor, Device, Snapshot, SnapshotError, Tensor, TwinQ, polyak_update,
+};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::path::Path;
@@ -231,6 +233,10 @@ impl OffPolicyLearner for Td3 {
         ])
     }
 
+    fn gradient_steps(&self) -> u64 {
+        self.gradient_steps
+    }
+
     fn save(&self, dir: &Path) -> Result<(), AgentError> {
         save_module(&self.actor, &dir.join("actor.bpk"))?;
         save_module(&self.actor_target, &dir.join("actor_target.bpk"))?;
@@ -245,6 +251,22 @@ impl OffPolicyLearner for Td3 {
         self.critic = load_module(self.critic.clone(), &dir.join("critic.bpk"))?;
         self.critic_target =
             load_module(self.critic_target.clone(), &dir.join("critic_target.bpk"))?;
+        Ok(())
+    }
+
+    fn save_state<'a>(&'a self, snap: &mut Snapshot<'a>) {
+        self.actor_optim.save_state(snap, "td3.actor_adam");
+        self.critic_optim.save_state(snap, "td3.critic_adam");
+        snap.put_u64("td3.gradient_steps", self.gradient_steps);
+        snap.put_f64("td3.last_actor_loss", self.last_actor_loss);
+    }
+
+    fn load_state(&mut self, snap: &Snapshot<'_>) -> Result<(), SnapshotError> {
+        let d = &self.device;
+        self.actor_optim.load_state(snap, "td3.actor_adam", d)?;
+        self.critic_optim.load_state(snap, "td3.critic_adam", d)?;
+        self.gradient_steps = snap.u64("td3.gradient_steps")?;
+        self.last_actor_loss = snap.f64("td3.last_actor_loss")?;
         Ok(())
     }
 }

@@ -1,6 +1,7 @@
 //! Burn networks for foosball-rl: the MLP and the actor/critic heads of PPO, SAC and TD3,
 //! the action distributions, parameter-wise utilities (polyak averaging, flat views),
-//! Adam with PyTorch's epsilon and global-norm gradient clipping, and backend selection.
+//! Adam with PyTorch's epsilon and global-norm gradient clipping, backend selection, and
+//! files for networks (Burn records) and the rest of the training state (snapshots).
 //!
 //! Tensors are row-major batches: observations `[batch, obs_dim]`, actions
 //! `[batch, action_dim]`, values and log-probabilities `[batch]`. Parameters are drawn
@@ -16,6 +17,7 @@ pub mod init;
 pub mod mlp;
 pub mod optim;
 pub mod params;
+pub mod snapshot;
 pub mod store;
 
 pub use actor::{DeterministicActor, GaussianPolicy, SquashedGaussianActor};
@@ -27,3 +29,4 @@ pub use init::NetInit;
 pub use mlp::{Activation, Mlp};
 pub use optim::{Adam, AdamConfig, StepReport};
 pub use params::polyak_update;
+pub use snapshot::{Snapshot, SnapshotError};

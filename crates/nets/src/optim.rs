@@ -4,12 +4,14 @@
 //! tensor on its own; the paper (SB3 on PyTorch) used `eps = 1e-8` and one norm over all
 //! of a network's parameters. Both are written out here.
 
-use crate::host::{CHUNK, host_data, is_host, sum_squares, update_in_place};
+use crate::host::{CHUNK, host_data, is_host, sum_squares, to_vec, update_in_place};
 use crate::params::{flat_grads, map_flat_params, take_module};
+use crate::snapshot::{Snapshot, SnapshotError};
 use burn::module::Module;
 use burn::tensor::TensorData;
-use burn::tensor::{Gradients, Tensor};
+use burn::tensor::{Device, Gradients, Tensor};
 use rayon::prelude::*;
+use std::borrow::Cow;
 
 /// Adam's hyper-parameters (the learning rate is given at each step, so that schedules
 /// live with the algorithms).
@@ -160,6 +162,61 @@ impl Adam {
     /// Steps applied so far.
     pub fn steps(&self) -> u64 {
         self.steps
+    }
+
+    /// Stores the step count and moments under `prefix`: `{prefix}.steps`,
+    /// `{prefix}.stepped` (one flag per parameter) and `{prefix}.m{i}` / `{prefix}.v{i}`
+    /// for each stepped parameter `i` (host moments are borrowed, not copied).
+    pub fn save_state<'a>(&'a self, snap: &mut Snapshot<'a>, prefix: &str) {
+        snap.put_u64(format!("{prefix}.steps"), self.steps);
+        let stepped: Vec<bool> = self.moments.iter().map(Option::is_some).collect();
+        snap.put_bools(format!("{prefix}.stepped"), &stepped);
+        for (i, moments) in self.moments.iter().enumerate() {
+            let (m, v): (Cow<'a, [f32]>, Cow<'a, [f32]>) = match moments {
+                None => continue,
+                Some(Moments::Host(m, v)) => (m.into(), v.into()),
+                Some(Moments::Device(mv)) => {
+                    let [m, v] = mv.as_ref().clone();
+                    (to_vec(m).into(), to_vec(v).into())
+                }
+            };
+            snap.put_f32(format!("{prefix}.m{i}"), m);
+            snap.put_f32(format!("{prefix}.v{i}"), v);
+        }
+    }
+
+    /// Restores what [`Adam::save_state`] stored under `prefix`, the moments kept where
+    /// this optimiser keeps them for `device`'s backend.
+    pub fn load_state(
+        &mut self,
+        snap: &Snapshot<'_>,
+        prefix: &str,
+        device: &Device,
+    ) -> Result<(), SnapshotError> {
+        let host = self.host_fast_path && is_host(device);
+        let plain = device.clone().without_autodiff();
+        let steps = snap.u64(&format!("{prefix}.steps"))?;
+        let stepped = snap.bools(&format!("{prefix}.stepped"))?;
+        let mut moments = Vec::with_capacity(stepped.len());
+        for (i, stepped) in stepped.into_iter().enumerate() {
+            if !stepped {
+                moments.push(None);
+                continue;
+            }
+            let m = snap.f32s(&format!("{prefix}.m{i}"))?;
+            let v = snap.f32s_of_len(&format!("{prefix}.v{i}"), m.len())?;
+            moments.push(Some(if host {
+                Moments::Host(m.to_vec(), v.to_vec())
+            } else {
+                let tensor = |x: &[f32]| {
+                    Tensor::<1>::from_data(TensorData::new(x.to_vec(), [x.len()]), &plain)
+                };
+                Moments::Device(Box::new([tensor(m), tensor(v)]))
+            }));
+        }
+        self.steps = steps;
+        self.moments = moments;
+        Ok(())
     }
 
     /// One update of `module`'s parameters from the gradients of a loss

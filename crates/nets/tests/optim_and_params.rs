@@ -5,7 +5,7 @@ use burn::module::{Module, Param};
 use foosball_nets::params::host_params;
 use foosball_nets::store::{load_module, save_module};
 use foosball_nets::{
-    Activation, Adam, AdamConfig, Backend, Device, Mlp, Tensor, TensorData, polyak_update,
+    Activation, Adam, AdamConfig, Backend, Device, Mlp, Snapshot, Tensor, TensorData, polyak_update,
 };
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -80,19 +80,45 @@ fn run(steps: usize, lr: f64, max_grad_norm: Option<f32>) -> (Vec<f32>, Vec<f32>
 }
 
 fn run_path(steps: usize, lr: f64, max_grad_norm: Option<f32>, host: bool) -> (Vec<f32>, Vec<f32>) {
+    run_resumed(steps, lr, max_grad_norm, host, None)
+}
+
+/// `steps` Adam steps; with `resume_at = Some(k)` the optimiser's state is written to a
+/// file after step `k` and a fresh optimiser goes on from it.
+fn run_resumed(
+    steps: usize,
+    lr: f64,
+    max_grad_norm: Option<f32>,
+    host: bool,
+    resume_at: Option<usize>,
+) -> (Vec<f32>, Vec<f32>) {
     let device = device();
     let mut module = two_params([0.3, -1.5], [2.0, 0.1, -0.7, 1.2], &device);
-    let adam = Adam::new(AdamConfig {
-        max_grad_norm,
-        ..AdamConfig::default()
-    });
-    let mut adam = if host {
-        adam
-    } else {
-        adam.without_host_fast_path()
+    let fresh = || {
+        let adam = Adam::new(AdamConfig {
+            max_grad_norm,
+            ..AdamConfig::default()
+        });
+        if host {
+            adam
+        } else {
+            adam.without_host_fast_path()
+        }
     };
+    let mut adam = fresh();
     let mut norms = Vec::new();
-    for _ in 0..steps {
+    for k in 0..steps {
+        if resume_at == Some(k) {
+            let path = std::env::temp_dir()
+                .join(format!("foosball-adam-{}-{host}.bin", std::process::id()));
+            let mut snap = Snapshot::new();
+            adam.save_state(&mut snap, "adam");
+            snap.write(&path).unwrap();
+            adam = fresh();
+            adam.load_state(&Snapshot::read(&path).unwrap(), "adam", &device)
+                .unwrap();
+            std::fs::remove_file(path).unwrap();
+        }
         let mut grads = loss(&module, &device).backward();
         let (m, report) = adam.step(module, &mut grads, lr);
         assert!(report.applied);
@@ -101,6 +127,15 @@ fn run_path(steps: usize, lr: f64, max_grad_norm: Option<f32>, host: bool) -> (V
     }
     assert_eq!(adam.steps(), steps as u64);
     (host_params(&module).concat(), norms)
+}
+
+#[test]
+fn adam_restored_from_its_saved_state_goes_on_bit_for_bit() {
+    for host in [true, false] {
+        let straight = run_resumed(6, 0.1, Some(0.5), host, None);
+        let resumed = run_resumed(6, 0.1, Some(0.5), host, Some(3));
+        assert_eq!(straight, resumed, "host fast path: {host}");
+    }
 }
 
 fn assert_close(got: &[f32], want: &[f64], tol: f64) {

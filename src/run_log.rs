@@ -1,0 +1,226 @@
+//! The training logs of a run: CSV files, and TensorBoard event files holding the same
+//! scalars.
+//!
+//! Every [`crate::train::LOG_EVERY`] env steps (and at each epoch end) one window of
+//! training is summarised under these tags, in `scalars.csv` (`env_step,tag,value`) and
+//! in `RUN/tensorboard/`:
+//!
+//! | tag | value over the window |
+//! | --- | --- |
+//! | `rollout/ep_return_mean`, `rollout/ep_length_mean`, `rollout/score_rate`, `rollout/episodes` | training episodes that ended |
+//! | `train/<name>` | the algorithm's metrics (losses, entropy, alpha, ...), averaged |
+//! | `time/steps_per_second`, `time/updates_per_second` | env steps and gradient steps per second |
+//!
+//! Each evaluation adds `eval/<metric>` (the test metrics of its episodes) there and a
+//! row to `evaluations.csv`; each training episode is a row of `episodes.csv`.
+
+use crate::metrics::TestMetrics;
+use crate::run_dir::{RunFileError, append_csv};
+use foosball_algos::{Episode, Metrics};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use tensorboard_proto::event::{Event, SessionLog, SessionLog_SessionStatus};
+use tensorboard_rs::summary::scalar;
+use tensorboard_rs::summary_writer::FileWriter;
+
+/// The append-only CSV files of a run, in the order their lengths are checkpointed.
+pub const CSV_FILES: [&str; 3] = ["episodes.csv", "evaluations.csv", "scalars.csv"];
+
+const EPISODES_HEADER: &str = "env_step,return,length,scored";
+const EVALUATIONS_HEADER: &str = "env_step,mean_return,score_rate,mean_goal_distance,\
+mean_ball_speed,mean_final_distance,mean_length";
+const SCALARS_HEADER: &str = "env_step,tag,value";
+
+/// Training speed over one logging window.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Speed {
+    /// Env steps per second.
+    pub steps_per_second: f64,
+    /// Gradient steps per second.
+    pub updates_per_second: f64,
+}
+
+/// What the training loop writes while it runs.
+pub struct RunLog {
+    dir: PathBuf,
+    tensorboard: FileWriter,
+    episode_lines: Vec<String>,
+    episodes: Vec<(Episode, bool)>,
+    updates: Vec<Metrics>,
+    window_start: Instant,
+    window_env_steps: u64,
+    window_gradient_steps: u64,
+}
+
+impl RunLog {
+    /// Opens `run_dir`'s logs with the CSV files cut back to `csv_bytes` (in
+    /// [`CSV_FILES`] order; zeros for a fresh run) and a new TensorBoard event file. A
+    /// run resumed from a checkpoint at env step `resumed_at` marks the restart there, so
+    /// TensorBoard drops what the interrupted process logged after the checkpoint.
+    pub fn open(
+        run_dir: &Path,
+        csv_bytes: &[u64],
+        resumed_at: Option<u64>,
+        (env_steps, gradient_steps): (u64, u64),
+    ) -> Result<Self, RunFileError> {
+        for (name, &len) in CSV_FILES.iter().zip(csv_bytes) {
+            cut_file(&run_dir.join(name), len)?;
+        }
+        let tb_dir = run_dir.join("tensorboard");
+        std::fs::create_dir_all(&tb_dir).map_err(|source| RunFileError {
+            path: tb_dir.clone(),
+            source,
+        })?;
+        let mut tensorboard = FileWriter::new(&tb_dir);
+        if let Some(step) = resumed_at {
+            let mut log = SessionLog::new();
+            log.set_status(SessionLog_SessionStatus::START);
+            let mut event = Event::new();
+            event.set_session_log(log);
+            tensorboard.add_event(&event, step as usize);
+        }
+        Ok(Self {
+            dir: run_dir.to_path_buf(),
+            tensorboard,
+            episode_lines: Vec::new(),
+            episodes: Vec::new(),
+            updates: Vec::new(),
+            window_start: Instant::now(),
+            window_env_steps: env_steps,
+            window_gradient_steps: gradient_steps,
+        })
+    }
+
+    /// The CSV files' lengths now, in [`CSV_FILES`] order (0 for a file not yet made).
+    pub fn csv_bytes(&self) -> Result<Vec<u64>, RunFileError> {
+        CSV_FILES
+            .iter()
+            .map(|name| {
+                let path = self.dir.join(name);
+                match std::fs::metadata(&path) {
+                    Ok(m) => Ok(m.len()),
+                    Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(0),
+                    Err(source) => Err(RunFileError { path, source }),
+                }
+            })
+            .collect()
+    }
+
+    /// Records a training episode that ended at env step `env_step`.
+    pub fn episode(&mut self, env_step: u64, episode: Episode, scored: bool) {
+        self.episode_lines.push(format!(
+            "{env_step},{},{},{}",
+            episode.ret,
+            episode.len,
+            u8::from(scored)
+        ));
+        self.episodes.push((episode, scored));
+    }
+
+    /// Records the metrics of one training round.
+    pub fn update(&mut self, metrics: Metrics) {
+        self.updates.push(metrics);
+    }
+
+    /// Writes the window that ends at `env_step` (after `gradient_steps` gradient steps in
+    /// all) and starts the next; `None` when no env step was taken since the last window.
+    pub fn end_window(
+        &mut self,
+        env_step: u64,
+        gradient_steps: u64,
+    ) -> Result<Option<Speed>, RunFileError> {
+        if env_step == self.window_env_steps {
+            return Ok(None);
+        }
+        let seconds = self.window_start.elapsed().as_secs_f64().max(1e-9);
+        let speed = Speed {
+            steps_per_second: (env_step - self.window_env_steps) as f64 / seconds,
+            updates_per_second: (gradient_steps - self.window_gradient_steps) as f64 / seconds,
+        };
+        let mut rows: Vec<(String, f64)> = Vec::new();
+        if !self.episodes.is_empty() {
+            let n = self.episodes.len() as f64;
+            let sum = |f: fn(&(Episode, bool)) -> f64| self.episodes.iter().map(f).sum::<f64>();
+            rows.push(("rollout/ep_return_mean".into(), sum(|e| e.0.ret) / n));
+            rows.push(("rollout/ep_length_mean".into(), sum(|e| e.0.len as f64) / n));
+            rows.push((
+                "rollout/score_rate".into(),
+                sum(|e| f64::from(u8::from(e.1))) / n,
+            ));
+            rows.push(("rollout/episodes".into(), n));
+        }
+        for (name, value) in Metrics::mean(&self.updates).0 {
+            rows.push((format!("train/{name}"), value));
+        }
+        rows.push(("time/steps_per_second".into(), speed.steps_per_second));
+        rows.push(("time/updates_per_second".into(), speed.updates_per_second));
+        append_csv(
+            &self.dir.join(CSV_FILES[0]),
+            EPISODES_HEADER,
+            &self.episode_lines,
+        )?;
+        self.scalars(env_step, &rows)?;
+        self.episode_lines.clear();
+        self.episodes.clear();
+        self.updates.clear();
+        self.window_start = Instant::now();
+        self.window_env_steps = env_step;
+        self.window_gradient_steps = gradient_steps;
+        Ok(Some(speed))
+    }
+
+    /// Writes an evaluation's metrics at `env_step`.
+    pub fn evaluation(&mut self, env_step: u64, m: &TestMetrics) -> Result<(), RunFileError> {
+        let values = [
+            ("mean_return", m.mean_return.mean),
+            ("score_rate", m.score_rate.mean),
+            ("mean_goal_distance", m.mean_goal_distance.mean),
+            ("mean_ball_speed", m.mean_ball_speed.mean),
+            ("mean_final_distance", m.mean_final_distance.mean),
+            ("mean_length", m.mean_length.mean),
+        ];
+        let line = std::iter::once(env_step.to_string())
+            .chain(values.iter().map(|(_, v)| v.to_string()))
+            .collect::<Vec<_>>()
+            .join(",");
+        append_csv(&self.dir.join(CSV_FILES[1]), EVALUATIONS_HEADER, &[line])?;
+        let rows: Vec<(String, f64)> = values
+            .iter()
+            .map(|(name, v)| (format!("eval/{name}"), *v))
+            .collect();
+        self.scalars(env_step, &rows)
+    }
+
+    fn scalars(&mut self, env_step: u64, rows: &[(String, f64)]) -> Result<(), RunFileError> {
+        let lines: Vec<String> = rows
+            .iter()
+            .map(|(tag, v)| format!("{env_step},{tag},{v}"))
+            .collect();
+        append_csv(&self.dir.join(CSV_FILES[2]), SCALARS_HEADER, &lines)?;
+        for (tag, v) in rows {
+            self.tensorboard
+                .add_summary(scalar(tag, *v as f32), env_step as usize);
+        }
+        self.tensorboard.flush();
+        Ok(())
+    }
+}
+
+/// Cuts `path` back to `len` bytes (a missing file stands for an empty one).
+fn cut_file(path: &Path, len: u64) -> Result<(), RunFileError> {
+    let err = |source| RunFileError {
+        path: path.to_path_buf(),
+        source,
+    };
+    let file = match std::fs::OpenOptions::new().write(true).open(path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound && len == 0 => return Ok(()),
+        other => other.map_err(err)?,
+    };
+    let have = file.metadata().map_err(err)?.len();
+    if have < len {
+        return Err(err(std::io::Error::other(format!(
+            "holds {have} bytes but the checkpoint logged {len}"
+        ))));
+    }
+    file.set_len(len).map_err(err)
+}

@@ -1,0 +1,154 @@
+//! Kill and resume: a run that stops in the middle of an epoch and goes on from its last
+//! checkpoint ends exactly as the uninterrupted run does (metrics, logs, networks and
+//! the whole training state).
+
+mod common;
+
+use common::{scratch, tiny_config_text};
+use foosball_rl::config::RunConfig;
+use foosball_rl::nets::Snapshot;
+use foosball_rl::train::{Event, Start, train};
+use std::path::Path;
+use std::process::Command;
+
+fn config(algo: &str, epochs: u32, steps_per_epoch: u64) -> RunConfig {
+    let text = tiny_config_text(algo, epochs, steps_per_epoch);
+    RunConfig::from_toml(&text, Path::new("tiny.toml")).unwrap()
+}
+
+fn read(path: &Path) -> Vec<u8> {
+    std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// `scalars.csv` without the wall-clock rows (`time/...`).
+fn scalars(run: &Path) -> String {
+    String::from_utf8(read(&run.join("scalars.csv")))
+        .unwrap()
+        .lines()
+        .filter(|l| !l.contains(",time/"))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// The training state of a run's checkpoint, less the log files' lengths (the
+/// wall-clock rows of `scalars.csv` differ in length from run to run).
+fn training_state(run: &Path) -> Snapshot<'static> {
+    let mut state = Snapshot::read(&run.join("checkpoint/state.bin")).unwrap();
+    assert!(state.contains("loop.log_bytes"));
+    state.put_u64s("loop.log_bytes", vec![]);
+    state
+}
+
+/// The two runs end the same: test results, logs, and the whole training state
+/// (parameters follow from it: the optimisers' moments record every gradient, and the
+/// test trajectories every action). Network files are not compared byte for byte: Burn
+/// gives parameters a fresh random id in each process and writes it in the record.
+fn assert_same_run(a: &Path, b: &Path, label: &str) {
+    for file in [
+        "test/metrics.json",
+        "test/trajectories.bin",
+        "episodes.csv",
+        "evaluations.csv",
+    ] {
+        assert!(
+            read(&a.join(file)) == read(&b.join(file)),
+            "{label}: {file} differs"
+        );
+    }
+    assert_eq!(scalars(a), scalars(b), "{label}: scalars.csv differs");
+    assert!(
+        training_state(a) == training_state(b),
+        "{label}: the training state differs"
+    );
+}
+
+#[test]
+fn a_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_one() {
+    let dir = scratch("resume");
+    for algo in ["ppo", "sac", "td3"] {
+        let c = config(algo, 3, 150);
+        let straight = dir.join(format!("{algo}-straight"));
+        let broken = dir.join(format!("{algo}-broken"));
+        for run in [&straight, &broken] {
+            std::fs::create_dir_all(run).unwrap();
+        }
+        train(&c, &straight, Start::Fresh, |_| {}).unwrap();
+
+        // Stop the second run at its evaluation at env step 200, in epoch 2 of 3 (after
+        // the epoch-1 checkpoint, with epoch-2 logs and best networks already written).
+        let stopped = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            train(&c, &broken, Start::Fresh, |p| {
+                if matches!(p.event, Event::Evaluation { .. }) && p.env_steps == 200 {
+                    panic!("stopped at env step 200");
+                }
+            })
+        }));
+        assert!(stopped.is_err(), "{algo}: the run was not stopped");
+        assert!(!broken.join("test").exists());
+        let evals = std::fs::read_to_string(broken.join("evaluations.csv")).unwrap();
+        assert_eq!(
+            evals.lines().count(),
+            1 + 2,
+            "{algo}: logged past the checkpoint"
+        );
+
+        train(&c, &broken, Start::Resume, |_| {}).unwrap();
+        assert_same_run(&straight, &broken, algo);
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn resuming_without_a_checkpoint_is_refused() {
+    let dir = scratch("resume-none");
+    let c = config("sac", 1, 150);
+    let err = train(&c, &dir, Start::Resume, |_| {})
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("no checkpoint"), "{err}");
+    assert!(err.contains(dir.to_str().unwrap()), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn train_killed_by_a_signal_resumes_from_its_checkpoint() {
+    let dir = scratch("resume-kill");
+    let config_path = dir.join("sac.toml");
+    std::fs::write(&config_path, tiny_config_text("sac", 3, 1500)).unwrap();
+    let train_bin = env!("CARGO_BIN_EXE_train");
+    let (straight, killed) = (dir.join("straight"), dir.join("killed"));
+    let args = |out: &Path| {
+        let mut cmd = Command::new(train_bin);
+        cmd.args(["--config", config_path.to_str().unwrap()])
+            .args(["--out", out.to_str().unwrap()])
+            .stdout(std::process::Stdio::null());
+        cmd
+    };
+    assert!(args(&straight).status().unwrap().success());
+
+    let mut child = args(&killed).spawn().unwrap();
+    let state = killed.join("checkpoint/state.bin");
+    while !state.exists() {
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "ended before a checkpoint"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(!killed.join("test").exists(), "killed after the end");
+    let o = Command::new(train_bin)
+        .args(["--resume", killed.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_same_run(&straight, &killed, "killed sac");
+
+    let o = Command::new(train_bin)
+        .args(["--resume", killed.to_str().unwrap(), "--seed", "4"])
+        .output()
+        .unwrap();
+    assert!(!o.status.success(), "--resume takes its run's own settings");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
