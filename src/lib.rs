@@ -3,18 +3,22 @@
 //! - [`env`]: the table (rapier3d), Pendulum, vectorised environments, seeding;
 //! - [`nets`]: Burn networks, distributions, Adam;
 //! - [`algos`]: PPO, SAC, TD3, buffers and the agent/rollout shape;
+//! - [`cli`]: what the command-line tools share;
 //! - [`config`]: the run configuration (`configs/*.toml`);
 //! - [`evaluation`]: deterministic episodes on held-out seeds, played side by side;
 //! - [`metrics`]: the paper's test metrics with confidence intervals;
+//! - [`report`]: side-by-side tables and charts of several runs;
 //! - [`run_dir`]: the files of a run, written atomically;
 //! - [`run_log`]: training logs (CSV and TensorBoard);
 //! - [`checkpoint`]: resumable checkpoints at epoch ends;
 //! - [`train`]: the training loop shared by the three algorithms.
 
 pub mod checkpoint;
+pub mod cli;
 pub mod config;
 pub mod evaluation;
 pub mod metrics;
+pub mod report;
 pub mod run_dir;
 pub mod run_log;
 pub mod train;

@@ -1,6 +1,7 @@
 //! `evaluate`: the test phase of a finished or interrupted run, on its saved networks.
 
 use clap::{Parser, ValueEnum};
+use foosball_rl::cli::finish;
 use foosball_rl::config::{ConfigFileError, RunConfig};
 use foosball_rl::env::seeding::TEST_ENVS;
 use foosball_rl::train::{TrainError, build_agent, device, play, write_test};
@@ -74,14 +75,5 @@ fn run(args: &Args) -> Result<String, String> {
 }
 
 fn main() -> ExitCode {
-    match run(&Args::parse()) {
-        Ok(text) => {
-            println!("{text}");
-            ExitCode::SUCCESS
-        }
-        Err(message) => {
-            eprintln!("error: {message}");
-            ExitCode::from(2)
-        }
-    }
+    finish(run(&Args::parse()))
 }

@@ -3,6 +3,7 @@
 //! `train --resume RUN` goes on from a run's last checkpoint.
 
 use clap::Parser;
+use foosball_rl::cli::finish;
 use foosball_rl::config::{Algo, RunConfig};
 use foosball_rl::train::{Event, Progress, Start, train};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -211,18 +212,11 @@ fn main() -> ExitCode {
         let total = u64::from(c.protocol.epochs) * c.protocol.steps_per_epoch;
         let mut display = Display::new(total);
         let metrics = train(&c, &dir, start, |p| display.show(p)).map_err(|e| e.to_string())?;
-        println!(
+        Ok(format!(
             "\n{}\nresults in {}",
             metrics.to_markdown(),
             dir.join("test").display()
-        );
-        Ok(())
+        ))
     });
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(message) => {
-            eprintln!("error: {message}");
-            ExitCode::from(2)
-        }
-    }
+    finish(result)
 }

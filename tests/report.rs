@@ -1,0 +1,79 @@
+//! `report` on finished runs: the side-by-side table carries each run's test metrics, the
+//! charts are PNG images, and a run without a test is refused by name.
+
+mod common;
+
+use common::{scratch, tiny_config_text};
+use foosball_rl::config::RunConfig;
+use foosball_rl::train::{Start, train};
+use std::path::Path;
+use std::process::Command;
+
+/// Width and height from a PNG's IHDR chunk.
+fn png_size(path: &Path) -> (u32, u32) {
+    let bytes = std::fs::read(path).unwrap();
+    assert_eq!(
+        &bytes[..8],
+        b"\x89PNG\r\n\x1a\n",
+        "{} is not a PNG",
+        path.display()
+    );
+    let word = |at: usize| u32::from_be_bytes(bytes[at..at + 4].try_into().unwrap());
+    (word(16), word(20))
+}
+
+#[test]
+fn report_tables_and_charts_several_runs() {
+    let dir = scratch("report");
+    let mut runs = Vec::new();
+    for algo in ["ppo", "sac"] {
+        let text = tiny_config_text(algo, 2, 150);
+        let config = RunConfig::from_toml(&text, Path::new("tiny.toml")).unwrap();
+        let run = dir.join(algo);
+        std::fs::create_dir_all(&run).unwrap();
+        train(&config, &run, Start::Fresh, |_| {}).unwrap();
+        runs.push(run);
+    }
+    let out = dir.join("out");
+    let o = Command::new(env!("CARGO_BIN_EXE_report"))
+        .args(runs.iter().map(|r| r.to_str().unwrap()))
+        .args(["--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    let header = md.lines().find(|l| l.starts_with("| metric")).unwrap();
+    assert!(header.contains("ppo (ppo, 3 ep.)") && header.contains("sac (sac, 3 ep.)"));
+    for (k, run) in runs.iter().enumerate() {
+        let m: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(run.join("test/metrics.json")).unwrap())
+                .unwrap();
+        let reward = m["mean_return"]["mean"].as_f64().unwrap();
+        let row = md
+            .lines()
+            .find(|l| l.starts_with("| mean episode reward"))
+            .unwrap();
+        let cell = row.split('|').nth(2 + k).unwrap().trim();
+        assert!(
+            cell.starts_with(&format!("{reward:.3} [")),
+            "{cell} vs {reward}"
+        );
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(json.as_array().unwrap().len(), 2);
+    assert_eq!(png_size(&out.join("metrics.png")), (1500, 360));
+    assert_eq!(png_size(&out.join("curves.png")), (1200, 450));
+
+    let unfinished = dir.join("unfinished");
+    std::fs::create_dir_all(&unfinished).unwrap();
+    std::fs::copy(runs[0].join("config.toml"), unfinished.join("config.toml")).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_report"))
+        .args([unfinished.to_str().unwrap(), "--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("unfinished/test/metrics.json"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
