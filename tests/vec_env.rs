@@ -118,3 +118,23 @@ fn a_bad_action_refuses_the_whole_batch() {
     let a = venv.step(&good).unwrap().obs.to_vec();
     assert_eq!(a, fresh.step(&good).unwrap().obs);
 }
+
+#[test]
+fn a_restart_cuts_running_episodes_and_reseeds_every_env() {
+    let n = 3;
+    let actions = vec![0.0f32; n * ACTION_DIM];
+    let mut plain = foosball_vec(n, 1);
+    plain.reset(4);
+    let stepped = plain.step(&actions).unwrap().obs.to_vec();
+    let mut cut = foosball_vec(n, 1);
+    cut.reset(4);
+    let seeds = [11, 12, 13];
+    let s = cut.step_then_restart(&actions, &seeds).unwrap();
+    assert!(s.truncated.iter().all(|&t| t), "every episode ends");
+    for i in 0..n {
+        let last = &stepped[i * OBS_DIM..(i + 1) * OBS_DIM];
+        assert_eq!(s.final_observation(i).unwrap(), last, "env {i}");
+    }
+    let mut fresh = foosball_vec(n, 1);
+    assert_eq!(s.obs, fresh.reset_with_seeds(&seeds));
+}

@@ -61,9 +61,8 @@ impl<E: Env> Collector<E> {
         self.step_inner(agent, progress_remaining, None, on_episode)
     }
 
-    /// [`Collector::step`], then every episode still running is cut (a truncation: the
-    /// learner bootstraps from where it stood) and env `i` starts anew from `seeds[i]`.
-    /// Training runs do this at checkpoints, so a resumed run needs no physics state.
+    /// [`Collector::step`] through [`VecEnv::step_then_restart`]: episodes still running
+    /// are cut as truncations and env `i` starts anew from `seeds[i]`.
     pub fn step_then_restart(
         &mut self,
         agent: &mut dyn Agent,
@@ -82,50 +81,35 @@ impl<E: Env> Collector<E> {
         mut on_episode: impl FnMut(usize, Episode, &E::Info),
     ) -> Result<Option<Metrics>, VecEnvError> {
         let actions = agent.act(&self.obs, ActMode::Explore);
-        let od = self.envs.obs_dim();
-        let step = self.envs.step(&actions)?;
+        let step = match restart {
+            None => self.envs.step(&actions)?,
+            Some(seeds) => self.envs.step_then_restart(&actions, seeds)?,
+        };
         let n = step.rewards.len();
-        let rewards = step.rewards.to_vec();
-        let terminated = step.terminated.to_vec();
-        let mut truncated = step.truncated.to_vec();
-        let infos = step.infos.to_vec();
-        let mut final_obs: Vec<Option<Vec<f32>>> = (0..n)
-            .map(|i| step.final_observation(i).map(<[f32]>::to_vec))
-            .collect();
-        let mut next_obs = step.obs.to_vec();
-        if let Some(seeds) = restart {
-            for i in 0..n {
-                if final_obs[i].is_none() {
-                    truncated[i] = true;
-                    final_obs[i] = Some(next_obs[i * od..(i + 1) * od].to_vec());
-                }
-            }
-            next_obs = self.envs.reset_with_seeds(seeds).to_vec();
-        }
         let experience = Experience {
             obs: &self.obs,
             actions: &actions,
-            rewards: &rewards,
-            next_obs: &next_obs,
-            final_obs: final_obs.iter().map(Option::as_deref).collect(),
-            terminated: &terminated,
-            truncated: &truncated,
+            rewards: step.rewards,
+            next_obs: step.obs,
+            final_obs: (0..n).map(|i| step.final_observation(i)).collect(),
+            terminated: step.terminated,
+            truncated: step.truncated,
         };
         agent.observe(&experience);
         for i in 0..n {
-            self.returns[i] += f64::from(rewards[i]);
+            self.returns[i] += f64::from(step.rewards[i]);
             self.lengths[i] += 1;
-            if final_obs[i].is_some() {
+            if step.terminated[i] || step.truncated[i] {
                 let episode = Episode {
                     ret: self.returns[i],
                     len: self.lengths[i],
                 };
-                on_episode(i, episode, &infos[i]);
+                on_episode(i, episode, &step.infos[i]);
                 self.returns[i] = 0.0;
                 self.lengths[i] = 0;
             }
         }
-        self.obs = next_obs;
+        self.obs.copy_from_slice(step.obs);
         Ok(agent.update(progress_remaining))
     }
 }

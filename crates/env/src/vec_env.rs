@@ -200,14 +200,40 @@ impl<E: Env> VecEnv<E> {
             self.truncated[i] = t.truncated;
             self.infos[i] = t.info;
         }
-        Ok(VecStep {
+        Ok(self.last_step())
+    }
+
+    /// [`VecEnv::step`], then every episode still running is cut: reported as truncated,
+    /// its observation kept as the final one (to bootstrap from), and env `i` restarts
+    /// from `seeds[i]` (all envs, ended or not). Training runs do this at checkpoints, so
+    /// a resumed run needs no physics state.
+    pub fn step_then_restart(
+        &mut self,
+        actions: &[f32],
+        seeds: &[u64],
+    ) -> Result<VecStep<'_, E::Info>, VecEnvError> {
+        self.step(actions)?;
+        let od = self.obs_dim;
+        for i in 0..self.envs.len() {
+            if !(self.terminated[i] || self.truncated[i]) {
+                self.truncated[i] = true;
+                self.final_obs[i * od..(i + 1) * od]
+                    .copy_from_slice(&self.obs[i * od..(i + 1) * od]);
+            }
+        }
+        self.reset_with_seeds(seeds);
+        Ok(self.last_step())
+    }
+
+    fn last_step(&self) -> VecStep<'_, E::Info> {
+        VecStep {
             obs: &self.obs,
             rewards: &self.rewards,
             terminated: &self.terminated,
             truncated: &self.truncated,
             infos: &self.infos,
             final_obs: &self.final_obs,
-            obs_dim: od,
-        })
+            obs_dim: self.obs_dim,
+        }
     }
 }
