@@ -104,6 +104,12 @@ pub struct RunConfig {
 /// A configuration that could not be used; `Display` names the file, line and key.
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigFileError {
+    /// A run directory without its `config.toml`.
+    #[error("{dir}: not a run directory (no config.toml)")]
+    NotARun {
+        /// The directory.
+        dir: PathBuf,
+    },
     /// The file could not be read.
     #[error("{path}: cannot read: {source}")]
     Read {
@@ -144,6 +150,17 @@ impl RunConfig {
             source,
         })?;
         Self::from_toml(&text, path)
+    }
+
+    /// The saved configuration of the run in `dir` (its `config.toml`).
+    pub fn load_run(dir: &Path) -> Result<Self, ConfigFileError> {
+        let path = dir.join("config.toml");
+        if !path.is_file() {
+            return Err(ConfigFileError::NotARun {
+                dir: dir.to_path_buf(),
+            });
+        }
+        Self::load(&path)
     }
 
     /// Parses and checks TOML `text`; `path` names it in errors.

@@ -2,7 +2,7 @@
 //! Figure 2), a PNG bar chart of the five metrics with 95 % intervals, and learning
 //! curves from their evaluations.
 
-use crate::config::RunConfig;
+use crate::config::{ConfigFileError, RunConfig};
 use crate::metrics::{Estimate, TestMetrics};
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
@@ -23,16 +23,22 @@ pub struct RunResults {
 /// A run directory that cannot be reported on, or a report file that could not be
 /// written; names the file.
 #[derive(Debug, thiserror::Error)]
-#[error("{path}: {message}")]
-pub struct ReportError {
-    /// The file at fault.
-    pub path: PathBuf,
-    /// What went wrong.
-    pub message: String,
+pub enum ReportError {
+    /// The run's configuration is missing or unreadable.
+    #[error(transparent)]
+    Config(#[from] ConfigFileError),
+    /// Another file could not be read or written.
+    #[error("{path}: {message}")]
+    File {
+        /// The file at fault.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
 }
 
 fn error(path: &Path, message: impl ToString) -> ReportError {
-    ReportError {
+    ReportError::File {
         path: path.to_path_buf(),
         message: message.to_string(),
     }
@@ -41,12 +47,7 @@ fn error(path: &Path, message: impl ToString) -> ReportError {
 impl RunResults {
     /// Reads the run in `dir` (it must have finished its test).
     pub fn read(dir: &Path) -> Result<Self, ReportError> {
-        let config = RunConfig::load(&dir.join("config.toml")).map_err(|e| match e {
-            crate::config::ConfigFileError::Read { path, .. } => {
-                error(&path, "not a run directory (no config.toml)")
-            }
-            e => error(&dir.join("config.toml"), e),
-        })?;
+        let config = RunConfig::load_run(dir)?;
         let path = dir.join("test/metrics.json");
         let text = std::fs::read_to_string(&path)
             .map_err(|e| error(&path, format!("{e} (has the run finished its test?)")))?;

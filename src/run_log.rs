@@ -44,8 +44,7 @@ pub struct Speed {
 pub struct RunLog {
     dir: PathBuf,
     tensorboard: FileWriter,
-    episode_lines: Vec<String>,
-    episodes: Vec<(Episode, bool)>,
+    episodes: Vec<(u64, Episode, bool)>,
     updates: Vec<Metrics>,
     window_start: Instant,
     window_env_steps: u64,
@@ -82,7 +81,6 @@ impl RunLog {
         Ok(Self {
             dir: run_dir.to_path_buf(),
             tensorboard,
-            episode_lines: Vec::new(),
             episodes: Vec::new(),
             updates: Vec::new(),
             window_start: Instant::now(),
@@ -108,13 +106,7 @@ impl RunLog {
 
     /// Records a training episode that ended at env step `env_step`.
     pub fn episode(&mut self, env_step: u64, episode: Episode, scored: bool) {
-        self.episode_lines.push(format!(
-            "{env_step},{},{},{}",
-            episode.ret,
-            episode.len,
-            u8::from(scored)
-        ));
-        self.episodes.push((episode, scored));
+        self.episodes.push((env_step, episode, scored));
     }
 
     /// Records the metrics of one training round.
@@ -140,12 +132,13 @@ impl RunLog {
         let mut rows: Vec<(String, f64)> = Vec::new();
         if !self.episodes.is_empty() {
             let n = self.episodes.len() as f64;
-            let sum = |f: fn(&(Episode, bool)) -> f64| self.episodes.iter().map(f).sum::<f64>();
-            rows.push(("rollout/ep_return_mean".into(), sum(|e| e.0.ret) / n));
-            rows.push(("rollout/ep_length_mean".into(), sum(|e| e.0.len as f64) / n));
+            let sum =
+                |f: fn(&(u64, Episode, bool)) -> f64| self.episodes.iter().map(f).sum::<f64>();
+            rows.push(("rollout/ep_return_mean".into(), sum(|e| e.1.ret) / n));
+            rows.push(("rollout/ep_length_mean".into(), sum(|e| e.1.len as f64) / n));
             rows.push((
                 "rollout/score_rate".into(),
-                sum(|e| f64::from(u8::from(e.1))) / n,
+                sum(|e| f64::from(u8::from(e.2))) / n,
             ));
             rows.push(("rollout/episodes".into(), n));
         }
@@ -154,13 +147,13 @@ impl RunLog {
         }
         rows.push(("time/steps_per_second".into(), speed.steps_per_second));
         rows.push(("time/updates_per_second".into(), speed.updates_per_second));
-        append_csv(
-            &self.dir.join(CSV_FILES[0]),
-            EPISODES_HEADER,
-            &self.episode_lines,
-        )?;
+        let lines: Vec<String> = self
+            .episodes
+            .iter()
+            .map(|(step, e, scored)| format!("{step},{},{},{}", e.ret, e.len, u8::from(*scored)))
+            .collect();
+        append_csv(&self.dir.join(CSV_FILES[0]), EPISODES_HEADER, &lines)?;
         self.scalars(env_step, &rows)?;
-        self.episode_lines.clear();
         self.episodes.clear();
         self.updates.clear();
         self.window_start = Instant::now();

@@ -2,7 +2,7 @@
 
 use clap::{Parser, ValueEnum};
 use foosball_rl::cli::finish;
-use foosball_rl::config::{ConfigFileError, RunConfig};
+use foosball_rl::config::RunConfig;
 use foosball_rl::env::seeding::TEST_ENVS;
 use foosball_rl::train::{TrainError, build_agent, device, play, write_test};
 use std::path::PathBuf;
@@ -39,12 +39,7 @@ struct Args {
 }
 
 fn run(args: &Args) -> Result<String, String> {
-    let config = RunConfig::load(&args.run.join("config.toml")).map_err(|e| match e {
-        ConfigFileError::Read { path, .. } => {
-            format!("{}: not a run directory (no config.toml)", path.display())
-        }
-        e => e.to_string(),
-    })?;
+    let config = RunConfig::load_run(&args.run).map_err(|e| e.to_string())?;
     let name = format!("{:?}", args.checkpoint).to_lowercase();
     let networks = args.run.join(&name);
     if !networks.is_dir() {

@@ -180,16 +180,9 @@ fn hms(d: Duration) -> String {
     format!("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
 }
 
-/// The configuration and directory of a resumed run.
+/// The configuration of a resumed run, with `--threads` applied.
 fn resumed(dir: &Path, threads: Option<usize>) -> Result<RunConfig, String> {
-    let path = dir.join("config.toml");
-    if !path.is_file() {
-        return Err(format!(
-            "{}: not a run directory (no config.toml)",
-            dir.display()
-        ));
-    }
-    let mut c = RunConfig::load(&path).map_err(|e| e.to_string())?;
+    let mut c = RunConfig::load_run(dir).map_err(|e| e.to_string())?;
     c.protocol.threads = threads.unwrap_or(c.protocol.threads);
     Ok(c)
 }

@@ -129,17 +129,8 @@ impl ReplayBuffer {
                 ),
             });
         }
-        let flags = |k: &str| -> Result<Vec<bool>, SnapshotError> {
-            let v = snap.bools(&key(k))?;
-            if v.len() != n {
-                return Err(SnapshotError::Entry {
-                    name: key(k),
-                    message: format!("holds {} values, expected {n}", v.len()),
-                });
-            }
-            Ok(v)
-        };
-        let (terminated, timeouts) = (flags("terminated")?, flags("timeouts")?);
+        let terminated = snap.bools_of_len(&key("terminated"), n)?;
+        let timeouts = snap.bools_of_len(&key("timeouts"), n)?;
         self.obs[..n * o].copy_from_slice(snap.f32s_of_len(&key("obs"), n * o)?);
         self.next_obs[..n * o].copy_from_slice(snap.f32s_of_len(&key("next_obs"), n * o)?);
         self.actions[..n * a].copy_from_slice(snap.f32s_of_len(&key("actions"), n * a)?);

@@ -134,14 +134,7 @@ impl<'a> Snapshot<'a> {
 
     /// The floats under `name`, which must number `len`.
     pub fn f32s_of_len(&self, name: &str, len: usize) -> Result<&[f32], SnapshotError> {
-        let v = self.f32s(name)?;
-        if v.len() != len {
-            return Err(SnapshotError::Entry {
-                name: name.to_string(),
-                message: format!("holds {} values, expected {len}", v.len()),
-            });
-        }
-        Ok(v)
+        self.f32s(name).and_then(|v| of_len(name, v, len))
     }
 
     /// The integers stored under `name`.
@@ -154,13 +147,9 @@ impl<'a> Snapshot<'a> {
 
     /// The counter stored under `name`.
     pub fn u64(&self, name: &str) -> Result<u64, SnapshotError> {
-        match self.u64s(name)? {
-            [v] => Ok(*v),
-            v => Err(SnapshotError::Entry {
-                name: name.to_string(),
-                message: format!("holds {} values, expected 1", v.len()),
-            }),
-        }
+        self.u64s(name)
+            .and_then(|v| of_len(name, v, 1))
+            .map(|v| v[0])
     }
 
     /// The float stored under `name` by [`Snapshot::put_f64`].
@@ -176,16 +165,17 @@ impl<'a> Snapshot<'a> {
         }
     }
 
+    /// The flags under `name`, which must number `len`.
+    pub fn bools_of_len(&self, name: &str, len: usize) -> Result<Vec<bool>, SnapshotError> {
+        let v = self.bools(name)?;
+        of_len(name, &v, len)?;
+        Ok(v)
+    }
+
     /// The generator stored under `name` by [`Snapshot::put_rng`], at the same position.
     pub fn rng(&self, name: &str) -> Result<ChaCha8Rng, SnapshotError> {
         use rand::SeedableRng;
-        let words = self.u64s(name)?;
-        if words.len() != 7 {
-            return Err(SnapshotError::Entry {
-                name: name.to_string(),
-                message: format!("holds {} values, expected 7", words.len()),
-            });
-        }
+        let words = self.u64s(name).and_then(|v| of_len(name, v, 7))?;
         let mut seed = [0u8; 32];
         for (chunk, w) in seed.chunks_mut(8).zip(&words[..4]) {
             chunk.copy_from_slice(&w.to_le_bytes());
@@ -273,6 +263,17 @@ impl<'a> Snapshot<'a> {
         }
         Ok(Snapshot { entries })
     }
+}
+
+/// `values` if they number `len`, else an error naming the entry `name`.
+fn of_len<'v, T>(name: &str, values: &'v [T], len: usize) -> Result<&'v [T], SnapshotError> {
+    if values.len() != len {
+        return Err(SnapshotError::Entry {
+            name: name.to_string(),
+            message: format!("holds {} values, expected {len}", values.len()),
+        });
+    }
+    Ok(values)
 }
 
 /// Writes the element count, then each element's little-endian bytes.
