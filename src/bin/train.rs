@@ -6,7 +6,7 @@ use clap::Parser;
 use foosball_rl::cli::finish;
 use foosball_rl::config::{Algo, RunConfig};
 use foosball_rl::train::{Event, Progress, Start, train};
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::{FormattedDuration, ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Duration;
@@ -148,7 +148,7 @@ impl Display {
                     "{:.0} steps/s {:.1} updates/s ETA {}",
                     s.steps_per_second,
                     s.updates_per_second,
-                    hms(eta)
+                    FormattedDuration(eta)
                 );
             }
             Event::Evaluation {
@@ -173,11 +173,6 @@ impl Display {
         self.bar
             .set_message(format!("{} | {}", self.speed, self.eval));
     }
-}
-
-fn hms(d: Duration) -> String {
-    let s = d.as_secs();
-    format!("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
 }
 
 /// The configuration of a resumed run, with `--threads` applied.
