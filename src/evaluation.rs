@@ -3,7 +3,7 @@
 
 use crate::metrics::EpisodeSummary;
 use foosball_algos::{ActMode, Agent};
-use foosball_env::{Env, EnvError, FoosballEnv};
+use foosball_env::{Env, EnvError, FoosballEnv, layout};
 use rayon::prelude::*;
 
 /// One episode's steps: observations acted on `[T, obs_dim]`, actions `[T, action_dim]`,
@@ -37,16 +37,25 @@ struct Slot {
     trajectory: Option<Trajectory>,
 }
 
-/// Plays one deterministic episode per seed, `envs.len()` side by side, and returns them
+/// A policy acting on a batch: observations `[n, obs_dim]` in, actions `[n, action_dim]`
+/// out (a trained agent's deterministic action, or a scripted controller).
+pub type BatchPolicy<'a> = dyn FnMut(&[f32]) -> Vec<f32> + 'a;
+
+/// An agent's deterministic action as a [`BatchPolicy`].
+pub fn deterministic(agent: &mut dyn Agent) -> impl FnMut(&[f32]) -> Vec<f32> + '_ {
+    move |obs| agent.act(obs, ActMode::Deterministic)
+}
+
+/// Plays one episode per seed with `policy`, `envs.len()` side by side, and returns them
 /// in seed order. The number of envs is part of the protocol: a batch of another size
 /// may round the networks' outputs differently in the last bit.
 pub fn play_deterministic(
-    agent: &mut dyn Agent,
+    policy: &mut BatchPolicy<'_>,
     envs: &mut [FoosballEnv],
     seeds: &[u64],
     record: bool,
 ) -> Result<Vec<PlayedEpisode>, EnvError> {
-    let (obs_dim, action_dim) = (agent.obs_dim(), agent.action_dim());
+    let (obs_dim, action_dim) = (layout::OBS_DIM, layout::ACTION_DIM);
     let start = |env: &mut FoosballEnv, index: usize| {
         let mut obs = vec![0.0; obs_dim];
         env.reset_into(Some(seeds[index]), &mut obs);
@@ -74,7 +83,7 @@ pub fn play_deterministic(
             .flatten()
             .flat_map(|s| s.obs.iter().copied())
             .collect();
-        let actions = agent.act(&batch, ActMode::Deterministic);
+        let actions = policy(&batch);
         let mut rows = actions.chunks(action_dim);
         let work: Vec<(&mut FoosballEnv, &mut Slot, &[f32])> = envs
             .iter_mut()
@@ -97,6 +106,7 @@ pub fn play_deterministic(
                 s.speed_sum += f64::from(t.info.ball_speed);
                 s.final_distance = f64::from(t.info.goal_distance);
                 s.scored |= t.info.scored();
+                s.end = t.info.end;
                 if let Some(tr) = slot.trajectory.as_mut() {
                     tr.rewards.push(t.reward);
                 }

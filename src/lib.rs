@@ -7,10 +7,13 @@
 //! - [`config`]: the run configuration (`configs/*.toml`);
 //! - [`evaluation`]: deterministic episodes on held-out seeds, played side by side;
 //! - [`metrics`]: the paper's test metrics with confidence intervals;
+//! - [`policy`]: scripted yellow policies (shooter, dribbler, zero, random);
 //! - [`report`]: side-by-side tables and charts of several runs;
 //! - [`run_dir`]: the files of a run, written atomically;
 //! - [`run_log`]: training logs (CSV and TensorBoard);
 //! - [`checkpoint`]: resumable checkpoints at epoch ends;
+//! - [`stats`]: aggregates over seeds (mean, IQM, bootstrap intervals);
+//! - [`sweep`]: algorithms x seeds into one directory, resumable;
 //! - [`train`]: the training loop shared by the three algorithms.
 
 pub mod checkpoint;
@@ -18,9 +21,12 @@ pub mod cli;
 pub mod config;
 pub mod evaluation;
 pub mod metrics;
+pub mod policy;
 pub mod report;
 pub mod run_dir;
 pub mod run_log;
+pub mod stats;
+pub mod sweep;
 pub mod train;
 
 pub use foosball_algos as algos;

@@ -7,7 +7,9 @@
 //! approximation for means over episodes, and for the all-steps means (ratios of sums)
 //! the delta method with episodes as clusters.
 
+use foosball_env::EndReason;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 
 /// z for a two-sided 95 % interval.
 const Z95: f64 = 1.959_963_984_540_054;
@@ -27,6 +29,8 @@ pub struct EpisodeSummary {
     pub speed_sum: f64,
     /// Ball-to-goal distance at the last step, cm.
     pub final_distance: f64,
+    /// Why the episode ended (None while it runs).
+    pub end: Option<EndReason>,
 }
 
 /// A point estimate and its 95 % confidence interval.
@@ -64,6 +68,23 @@ pub struct TestMetrics {
     pub mean_final_distance: Estimate,
     /// Mean episode length, agent steps.
     pub mean_length: Estimate,
+    /// Share of episodes that ended for each reason (names as in [`EndReason::name`]).
+    #[serde(default)]
+    pub end_reasons: BTreeMap<String, f64>,
+}
+
+/// Share of each end reason among `ends` (reasons that never occur are left out).
+pub fn end_shares(ends: impl Iterator<Item = EndReason>) -> BTreeMap<String, f64> {
+    let mut counts = BTreeMap::new();
+    let mut n = 0usize;
+    for end in ends {
+        *counts.entry(end.name().to_string()).or_insert(0usize) += 1;
+        n += 1;
+    }
+    counts
+        .into_iter()
+        .map(|(k, c)| (k, c as f64 / n as f64))
+        .collect()
 }
 
 /// Wilson score interval of `k` successes in `n` trials.
@@ -121,6 +142,7 @@ impl TestMetrics {
             mean_return: mean_estimate(&col(|e| e.ret)),
             mean_final_distance: mean_estimate(&col(|e| e.final_distance)),
             mean_length: mean_estimate(&steps),
+            end_reasons: end_shares(episodes.iter().filter_map(|e| e.end)),
         }
     }
 
@@ -148,6 +170,12 @@ impl TestMetrics {
                 e.mean, e.ci95[0], e.ci95[1]
             );
         }
+        let ends: Vec<String> = self
+            .end_reasons
+            .iter()
+            .map(|(k, v)| format!("{k} {:.1} %", 100.0 * v))
+            .collect();
+        out += &format!("\nEpisodes ended: {}\n", ends.join(", "));
         out
     }
 }
@@ -177,6 +205,11 @@ mod tests {
             distance_sum,
             speed_sum: 2.0 * distance_sum,
             final_distance: 1.0,
+            end: Some(if scored {
+                EndReason::Stagnant
+            } else {
+                EndReason::NoProgress
+            }),
         };
         let m = TestMetrics::from_episodes(&[e(1, 10.0, true), e(3, 6.0, false)]);
         assert_eq!(m.mean_goal_distance.mean, 16.0 / 4.0);
@@ -187,5 +220,11 @@ mod tests {
         // Mean 8, sample sd 2.828: half-width 1.96 * 2 = 3.92.
         assert!((m.mean_return.ci95[1] - 8.0 - Z95 * 2.0).abs() < 1e-9);
         assert!(m.to_markdown().contains("| score rate | 0.5000 |"));
+        assert_eq!(m.end_reasons["stagnant"], 0.5);
+        assert!(
+            m.to_markdown().contains("no_progress 50.0 %"),
+            "{}",
+            m.to_markdown()
+        );
     }
 }

@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! RUN/config.toml          effective configuration
-//! RUN/episodes.csv         env_step,return,length,scored      (training episodes)
+//! RUN/episodes.csv         env_step,return,length,scored,end  (training episodes)
 //! RUN/evaluations.csv      env_step,mean_return,score_rate,mean_goal_distance
 //! RUN/updates.csv          env_step,name,value                (losses, alpha, ...)
 //! RUN/last/, RUN/best/     networks (Burn records) after the last epoch / best evaluation

@@ -8,15 +8,18 @@
 //! | tag | value over the window |
 //! | --- | --- |
 //! | `rollout/ep_return_mean`, `rollout/ep_length_mean`, `rollout/score_rate`, `rollout/episodes` | training episodes that ended |
+//! | `rollout/end_<reason>` | share of those episodes that ended for `<reason>` (scored, conceded, stagnant, no_progress, time_limit, physics_fault) |
 //! | `train/<name>` | the algorithm's metrics (losses, entropy, alpha, ...), averaged |
 //! | `time/steps_per_second`, `time/updates_per_second` | env steps and gradient steps per second |
 //!
-//! Each evaluation adds `eval/<metric>` (the test metrics of its episodes) there and a
+//! Each evaluation adds `eval/<metric>` (the test metrics of its episodes) and
+//! `eval/end_<reason>` there and a
 //! row to `evaluations.csv`; each training episode is a row of `episodes.csv`.
 
 use crate::metrics::TestMetrics;
 use crate::run_dir::{RunFileError, append_csv};
 use foosball_algos::{Episode, Metrics};
+use foosball_env::{EndReason, FoosballInfo};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use tensorboard_proto::event::{Event, SessionLog, SessionLog_SessionStatus};
@@ -26,7 +29,7 @@ use tensorboard_rs::summary_writer::FileWriter;
 /// The append-only CSV files of a run, in the order their lengths are checkpointed.
 pub const CSV_FILES: [&str; 3] = ["episodes.csv", "evaluations.csv", "scalars.csv"];
 
-const EPISODES_HEADER: &str = "env_step,return,length,scored";
+const EPISODES_HEADER: &str = "env_step,return,length,scored,end";
 const EVALUATIONS_HEADER: &str = "env_step,mean_return,score_rate,mean_goal_distance,\
 mean_ball_speed,mean_final_distance,mean_length";
 const SCALARS_HEADER: &str = "env_step,tag,value";
@@ -40,11 +43,35 @@ pub struct Speed {
     pub updates_per_second: f64,
 }
 
+/// A training episode as logged.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct TrainingEpisode {
+    env_step: u64,
+    episode: Episode,
+    scored: bool,
+    end: Option<EndReason>,
+}
+
+/// The share of each end reason among `ends`, as scalars `<prefix>/end_<reason>` (every
+/// reason, zeros included, so the tags are the same in every window).
+fn end_rows(prefix: &str, ends: &[EndReason]) -> Vec<(String, f64)> {
+    EndReason::ALL
+        .iter()
+        .map(|r| {
+            let k = ends.iter().filter(|e| *e == r).count();
+            (
+                format!("{prefix}/end_{}", r.name()),
+                k as f64 / ends.len().max(1) as f64,
+            )
+        })
+        .collect()
+}
+
 /// What the training loop writes while it runs.
 pub struct RunLog {
     dir: PathBuf,
     tensorboard: FileWriter,
-    episodes: Vec<(u64, Episode, bool)>,
+    episodes: Vec<TrainingEpisode>,
     updates: Vec<Metrics>,
     window_start: Instant,
     window_env_steps: u64,
@@ -104,9 +131,15 @@ impl RunLog {
             .collect()
     }
 
-    /// Records a training episode that ended at env step `env_step`.
-    pub fn episode(&mut self, env_step: u64, episode: Episode, scored: bool) {
-        self.episodes.push((env_step, episode, scored));
+    /// Records a training episode that ended at env step `env_step`, its last step's
+    /// `info`.
+    pub fn episode(&mut self, env_step: u64, episode: Episode, info: &FoosballInfo) {
+        self.episodes.push(TrainingEpisode {
+            env_step,
+            episode,
+            scored: info.scored(),
+            end: info.end,
+        });
     }
 
     /// Records the metrics of one training round.
@@ -132,15 +165,19 @@ impl RunLog {
         let mut rows: Vec<(String, f64)> = Vec::new();
         if !self.episodes.is_empty() {
             let n = self.episodes.len() as f64;
-            let sum =
-                |f: fn(&(u64, Episode, bool)) -> f64| self.episodes.iter().map(f).sum::<f64>();
-            rows.push(("rollout/ep_return_mean".into(), sum(|e| e.1.ret) / n));
-            rows.push(("rollout/ep_length_mean".into(), sum(|e| e.1.len as f64) / n));
+            let sum = |f: fn(&TrainingEpisode) -> f64| self.episodes.iter().map(f).sum::<f64>();
+            rows.push(("rollout/ep_return_mean".into(), sum(|e| e.episode.ret) / n));
+            rows.push((
+                "rollout/ep_length_mean".into(),
+                sum(|e| e.episode.len as f64) / n,
+            ));
             rows.push((
                 "rollout/score_rate".into(),
-                sum(|e| f64::from(u8::from(e.2))) / n,
+                sum(|e| f64::from(u8::from(e.scored))) / n,
             ));
             rows.push(("rollout/episodes".into(), n));
+            let ends: Vec<EndReason> = self.episodes.iter().filter_map(|e| e.end).collect();
+            rows.extend(end_rows("rollout", &ends));
         }
         for (name, value) in Metrics::mean(&self.updates).0 {
             rows.push((format!("train/{name}"), value));
@@ -150,7 +187,16 @@ impl RunLog {
         let lines: Vec<String> = self
             .episodes
             .iter()
-            .map(|(step, e, scored)| format!("{step},{},{},{}", e.ret, e.len, u8::from(*scored)))
+            .map(|e| {
+                format!(
+                    "{},{},{},{},{}",
+                    e.env_step,
+                    e.episode.ret,
+                    e.episode.len,
+                    u8::from(e.scored),
+                    e.end.map_or("", EndReason::name)
+                )
+            })
             .collect();
         append_csv(&self.dir.join(CSV_FILES[0]), EPISODES_HEADER, &lines)?;
         self.scalars(env_step, &rows)?;
@@ -177,10 +223,16 @@ impl RunLog {
             .collect::<Vec<_>>()
             .join(",");
         append_csv(&self.dir.join(CSV_FILES[1]), EVALUATIONS_HEADER, &[line])?;
-        let rows: Vec<(String, f64)> = values
+        let mut rows: Vec<(String, f64)> = values
             .iter()
             .map(|(name, v)| (format!("eval/{name}"), *v))
             .collect();
+        rows.extend(EndReason::ALL.iter().map(|r| {
+            (
+                format!("eval/end_{}", r.name()),
+                m.end_reasons.get(r.name()).copied().unwrap_or(0.0),
+            )
+        }));
         self.scalars(env_step, &rows)
     }
 

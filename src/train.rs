@@ -4,13 +4,15 @@
 
 use crate::checkpoint::{self, CheckpointError, LoopState};
 use crate::config::{Algo, RunConfig};
-use crate::evaluation::{PlayedEpisode, play_deterministic};
+use crate::evaluation::{BatchPolicy, PlayedEpisode, deterministic, play_deterministic};
 use crate::metrics::{EpisodeSummary, TestMetrics};
 use crate::run_dir::{RunFileError, trajectories_bytes, write_atomic};
 use crate::run_log::{CSV_FILES, RunLog, Speed};
 use foosball_algos::{Agent, AgentError, Collector, Ppo, Sac, Td3};
 use foosball_env::seeding::{EVAL_ENVS, LEARNER, TEST_ENVS, TRAIN_ENVS, derive_seed};
-use foosball_env::{EnvError, FoosballEnv, FoosballInfo, VecEnv, VecEnvError, layout};
+use foosball_env::{
+    EnvError, FoosballConfig, FoosballEnv, FoosballInfo, VecEnv, VecEnvError, layout,
+};
 use foosball_nets::{Backend, BackendError, Device};
 use std::path::{Path, PathBuf};
 
@@ -135,27 +137,27 @@ pub fn device(config: &RunConfig) -> Result<Device, TrainError> {
     Ok(backend.device()?)
 }
 
-fn foosball_envs(config: &RunConfig, n: usize) -> Result<Vec<FoosballEnv>, TrainError> {
+fn foosball_envs(env: &FoosballConfig, n: usize) -> Result<Vec<FoosballEnv>, TrainError> {
     (0..n)
-        .map(|_| {
-            FoosballEnv::new(config.env.clone()).map_err(|e| TrainError::Env(format!("env.{e}")))
-        })
+        .map(|_| FoosballEnv::new(env.clone()).map_err(|e| TrainError::Env(format!("env.{e}"))))
         .collect()
 }
 
-/// Deterministic episodes on the `stream`'s seeds `0..n`.
+/// Episodes played by `policy` on the `stream`'s seeds `0..n` (derived from the run
+/// seed `seed`), [`EVAL_BATCH`] side by side.
 pub fn play(
-    agent: &mut dyn Agent,
-    config: &RunConfig,
+    policy: &mut BatchPolicy<'_>,
+    env: &FoosballConfig,
+    seed: u64,
     stream: u64,
     n: u32,
     record: bool,
 ) -> Result<Vec<PlayedEpisode>, TrainError> {
     let seeds: Vec<u64> = (0..u64::from(n))
-        .map(|k| derive_seed(config.protocol.seed, stream, k))
+        .map(|k| derive_seed(seed, stream, k))
         .collect();
-    let mut envs = foosball_envs(config, EVAL_BATCH.min(seeds.len()))?;
-    Ok(play_deterministic(agent, &mut envs, &seeds, record)?)
+    let mut envs = foosball_envs(env, EVAL_BATCH.min(seeds.len()))?;
+    Ok(play_deterministic(policy, &mut envs, &seeds, record)?)
 }
 
 /// Writes `metrics.json`, `metrics.md` and `trajectories.bin` into `dir`.
@@ -253,7 +255,7 @@ pub fn train(
             (agent.env_steps(), agent.gradient_steps()),
         )?;
         let n = p.envs;
-        let envs = VecEnv::new(foosball_envs(config, n)?, threads)?;
+        let envs = VecEnv::new(foosball_envs(&config.env, n)?, threads)?;
         let mut collector = Collector::with_seeds(envs, &restart_seeds(p.seed, done, n));
         let total = u64::from(p.epochs) * p.steps_per_epoch;
         let progress = |env_steps, event| Progress {
@@ -266,7 +268,7 @@ pub fn train(
             while agent.env_steps() < end {
                 let steps = agent.env_steps();
                 let remaining = 1.0 - steps as f64 / total as f64;
-                let on_episode = |_, e, info: &FoosballInfo| log.episode(steps, e, info.scored());
+                let on_episode = |_, e, info: &FoosballInfo| log.episode(steps, e, info);
                 let update = if steps + n as u64 >= end {
                     let seeds = restart_seeds(p.seed, epoch, n);
                     collector.step_then_restart(agent.as_mut(), remaining, &seeds, on_episode)
@@ -285,7 +287,14 @@ pub fn train(
                 }
                 if steps >= next_eval {
                     next_eval += p.eval_every;
-                    let played = play(agent.as_mut(), config, EVAL_ENVS, p.eval_episodes, false)?;
+                    let played = play(
+                        &mut deterministic(agent.as_mut()),
+                        &config.env,
+                        config.protocol.seed,
+                        EVAL_ENVS,
+                        p.eval_episodes,
+                        false,
+                    )?;
                     let m = TestMetrics::from_episodes(
                         &played.iter().map(|e| e.summary).collect::<Vec<_>>(),
                     );
@@ -317,7 +326,14 @@ pub fn train(
             report(&progress(steps, Event::Checkpoint(epoch)));
         }
         report(&progress(agent.env_steps(), Event::Test));
-        let played = play(agent.as_mut(), config, TEST_ENVS, p.test_episodes, true)?;
+        let played = play(
+            &mut deterministic(agent.as_mut()),
+            &config.env,
+            config.protocol.seed,
+            TEST_ENVS,
+            p.test_episodes,
+            true,
+        )?;
         write_test(&run_dir.join("test"), &played)
     })
 }

@@ -3,7 +3,7 @@
 
 use foosball_rl::algos::{Agent, Sac, SacConfig, play_episode};
 use foosball_rl::env::{FoosballConfig, FoosballEnv};
-use foosball_rl::evaluation::play_deterministic;
+use foosball_rl::evaluation::{deterministic, play_deterministic};
 use foosball_rl::metrics::TestMetrics;
 use foosball_rl::nets::Backend;
 
@@ -36,8 +36,8 @@ fn envs(n: usize) -> Vec<FoosballEnv> {
 fn episodes_come_back_in_seed_order_and_repeat_exactly() {
     let mut agent = agent();
     let seeds: Vec<u64> = (100..107).collect();
-    let a = play_deterministic(&mut agent, &mut envs(3), &seeds, true).unwrap();
-    let b = play_deterministic(&mut agent, &mut envs(3), &seeds, true).unwrap();
+    let a = play_deterministic(&mut deterministic(&mut agent), &mut envs(3), &seeds, true).unwrap();
+    let b = play_deterministic(&mut deterministic(&mut agent), &mut envs(3), &seeds, true).unwrap();
     assert_eq!(a, b);
     assert_eq!(a.iter().map(|e| e.seed).collect::<Vec<_>>(), seeds);
     for e in &a {
@@ -61,7 +61,8 @@ fn episodes_come_back_in_seed_order_and_repeat_exactly() {
 fn one_env_at_a_time_matches_play_episode() {
     let mut agent = agent();
     let seeds = [5, 6];
-    let batched = play_deterministic(&mut agent, &mut envs(1), &seeds, false).unwrap();
+    let batched =
+        play_deterministic(&mut deterministic(&mut agent), &mut envs(1), &seeds, false).unwrap();
     let mut env = FoosballEnv::new(config()).unwrap();
     for (played, seed) in batched.iter().zip(seeds) {
         let (episode, info) = play_episode(&mut agent, &mut env, seed).unwrap();

@@ -5,11 +5,16 @@ use foosball_rl::env::geometry::{BALL_RADIUS, GOAL_LINE_Y};
 use foosball_rl::env::layout::{ACTION_DIM, BALL_POS, OBS_DIM, ROD_ANGLE, ROD_SLIDE};
 use foosball_rl::env::{
     EndReason, Env, EnvError, EnvRng, FoosballConfig, FoosballEnv, FoosballInfo, OpponentKind,
-    Transition,
+    Preset, Transition,
 };
 use rand::{Rng, SeedableRng};
 
 const NEUTRAL: [f32; ACTION_DIM] = [0.0; ACTION_DIM];
+
+/// The paper preset: 10 ms agent steps, ball free in 3-D, starting near (-0.5, -0.1).
+fn ten_ms() -> FoosballConfig {
+    FoosballConfig::preset(Preset::Paper)
+}
 
 fn env_with(config: FoosballConfig) -> FoosballEnv {
     let mut env = FoosballEnv::new(config).unwrap();
@@ -42,7 +47,7 @@ fn play_out(env: &mut FoosballEnv, limit: usize) -> Vec<Transition<FoosballInfo>
 
 #[test]
 fn the_first_observation_follows_the_layout() {
-    let mut env = FoosballEnv::new(FoosballConfig::default()).unwrap();
+    let mut env = FoosballEnv::new(ten_ms()).unwrap();
     let obs = env.reset(Some(3));
     assert_eq!(obs.len(), OBS_DIM);
     assert!((obs[BALL_POS.start + 2] - BALL_RADIUS).abs() < 1e-5);
@@ -58,7 +63,7 @@ fn the_first_observation_follows_the_layout() {
 
 #[test]
 fn rod_commands_show_up_in_the_observation() {
-    let mut env = env_with(FoosballConfig::default());
+    let mut env = env_with(ten_ms());
     // Yellow attack: slide +0.5 of 12 cm, turn -0.4 of 2.5 rad.
     let mut a = NEUTRAL;
     a[6] = 0.5;
@@ -92,7 +97,7 @@ fn reward_is_alpha_minus_the_distance_to_the_goal() {
         ([6.0, 56.0], 300.0 - 10.0),
         ([-30.0, -30.0], 300.0 - (900.0_f32 + 94.0 * 94.0).sqrt()),
     ] {
-        let mut env = placed(FoosballConfig::default(), xy, [0.0, 0.0]);
+        let mut env = placed(ten_ms(), xy, [0.0, 0.0]);
         let (_, t) = env.step(&NEUTRAL).unwrap();
         assert!(
             (t.reward - expected).abs() < 1e-2,
@@ -105,7 +110,7 @@ fn reward_is_alpha_minus_the_distance_to_the_goal() {
 
 #[test]
 fn a_resting_ball_ends_the_episode_as_stagnant_after_10_steps() {
-    let mut env = env_with(FoosballConfig::default());
+    let mut env = env_with(ten_ms());
     let ts = play_out(&mut env, 100);
     assert_eq!(ts.len(), 10);
     let last = ts.last().unwrap();
@@ -117,7 +122,7 @@ fn a_resting_ball_ends_the_episode_as_stagnant_after_10_steps() {
 #[test]
 fn a_ball_rolling_backwards_ends_the_episode_after_15_steps() {
     // Rolls towards yellow's goal at 40 cm/s through the gap at x = -30.
-    let mut env = placed(FoosballConfig::default(), [-30.0, 0.0], [0.0, -40.0]);
+    let mut env = placed(ten_ms(), [-30.0, 0.0], [0.0, -40.0]);
     let ts = play_out(&mut env, 100);
     assert_eq!(ts.len(), 15);
     assert_eq!(ts.last().unwrap().info.end, Some(EndReason::NoProgress));
@@ -128,7 +133,7 @@ fn a_ball_rolling_backwards_ends_the_episode_after_15_steps() {
 fn the_time_limit_truncates() {
     let config = FoosballConfig {
         max_episode_steps: 5,
-        ..FoosballConfig::default()
+        ..ten_ms()
     };
     let mut env = placed(config, [-30.0, -30.0], [0.0, 60.0]);
     let ts = play_out(&mut env, 100);
@@ -140,8 +145,12 @@ fn the_time_limit_truncates() {
 }
 
 #[test]
-fn a_goal_terminates_with_the_bonus() {
-    let mut env = placed(FoosballConfig::default(), [5.0, 42.0], [0.0, 300.0]);
+fn a_goal_terminates_with_the_bonus_under_end_on_goal() {
+    let mut env = placed(
+        FoosballConfig::preset(Preset::EndOnGoal),
+        [5.0, 42.0],
+        [0.0, 300.0],
+    );
     let ts = play_out(&mut env, 100);
     let last = ts.last().unwrap();
     assert!(last.info.scored() && last.terminated, "{:?}", last.info);
@@ -151,8 +160,8 @@ fn a_goal_terminates_with_the_bonus() {
 }
 
 #[test]
-fn an_own_goal_is_conceded_with_the_penalty() {
-    let mut config = FoosballConfig::default();
+fn an_own_goal_is_conceded_with_the_penalty_under_end_on_goal() {
+    let mut config = FoosballConfig::preset(Preset::EndOnGoal);
     config.reward.conceded_penalty = 500.0;
     config.rules.no_progress_steps = 1000;
     let mut env = placed(config, [5.0, -42.0], [0.0, -300.0]);
@@ -166,8 +175,8 @@ fn an_own_goal_is_conceded_with_the_penalty() {
 
 #[test]
 fn a_non_finite_action_is_refused_and_changes_nothing() {
-    let mut a = env_with(FoosballConfig::default());
-    let mut b = env_with(FoosballConfig::default());
+    let mut a = env_with(ten_ms());
+    let mut b = env_with(ten_ms());
     let mut bad = [0.3; ACTION_DIM];
     bad[5] = f32::NAN;
     assert!(
@@ -216,7 +225,7 @@ pub fn rollout(config: &FoosballConfig, seed: u64, steps: usize) -> Vec<f32> {
 fn same_seed_and_actions_give_identical_trajectories() {
     let config = FoosballConfig {
         opponent: foosball_rl::env::OpponentKind::Random,
-        ..FoosballConfig::default()
+        ..ten_ms()
     };
     let a = rollout(&config, 42, 5000);
     let b = rollout(&config, 42, 5000);
@@ -241,7 +250,7 @@ fn the_scripted_opponent_blocks_a_shot_the_static_one_lets_in() {
     ] {
         let config = FoosballConfig {
             opponent,
-            ..FoosballConfig::default()
+            ..ten_ms()
         };
         // The scripted goalie gets a few steps to slide over before the ball arrives.
         let mut env = placed(config, [5.0, 30.0], [0.0, 150.0]);
@@ -257,7 +266,7 @@ fn the_scripted_opponent_blocks_a_shot_the_static_one_lets_in() {
 
 #[test]
 fn domain_randomisation_draws_within_its_ranges_per_episode() {
-    let mut config = FoosballConfig::default();
+    let mut config = ten_ms();
     let r = &mut config.randomization;
     r.ball_mass_scale = [0.5, 1.5];
     r.ball_friction_scale = [0.8, 1.2];
@@ -285,7 +294,7 @@ fn domain_randomisation_draws_within_its_ranges_per_episode() {
 
 #[test]
 fn position_noise_touches_positions_only() {
-    let mut config = FoosballConfig::default();
+    let mut config = ten_ms();
     config.randomization.position_noise_std = [0.5, 0.5];
     let mut env = FoosballEnv::new(config).unwrap();
     let obs = env.reset(Some(4));
@@ -307,7 +316,7 @@ fn position_noise_touches_positions_only() {
 
 #[test]
 fn action_latency_delays_the_rods() {
-    let mut config = FoosballConfig::default();
+    let mut config = ten_ms();
     config.randomization.action_latency_steps = [2, 2];
     let mut env = env_with(config);
     let mut a = NEUTRAL;
@@ -328,7 +337,7 @@ fn action_latency_delays_the_rods() {
 #[test]
 fn a_physics_fault_truncates_with_a_finite_observation() {
     // A ball knocked off the table.
-    let mut env = env_with(FoosballConfig::default());
+    let mut env = env_with(ten_ms());
     env.table_mut()
         .unwrap()
         .set_ball([0.0, 0.0, 60.0], [0.0, 0.0, 500.0]);
@@ -341,7 +350,7 @@ fn a_physics_fault_truncates_with_a_finite_observation() {
     assert!(obs.iter().all(|v| v.is_finite()));
 
     // A non-finite state: the last good observation comes back, and the reward is finite.
-    let mut env = env_with(FoosballConfig::default());
+    let mut env = env_with(ten_ms());
     let (good, _) = env.step(&NEUTRAL).unwrap();
     env.table_mut()
         .unwrap()

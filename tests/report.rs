@@ -42,8 +42,14 @@ fn report_tables_and_charts_several_runs() {
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
-    let header = md.lines().find(|l| l.starts_with("| metric")).unwrap();
-    assert!(header.contains("ppo (ppo, 3 ep.)") && header.contains("sac (sac, 3 ep.)"));
+    let header = md
+        .lines()
+        .find(|l| l.starts_with("| mean over seeds"))
+        .unwrap();
+    assert!(
+        header.contains("ppo reference 16 (1 run)") && header.contains("sac reference 16 (1 run)"),
+        "{header}"
+    );
     for (k, run) in runs.iter().enumerate() {
         let m: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(run.join("test/metrics.json")).unwrap())
@@ -61,7 +67,11 @@ fn report_tables_and_charts_several_runs() {
     }
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
-    assert_eq!(json.as_array().unwrap().len(), 2);
+    assert_eq!(json["groups"].as_array().unwrap().len(), 2);
+    assert!(
+        md.contains("| reference | SAC's score rate is 42.9 % | 0.429 |"),
+        "{md}"
+    );
     assert_eq!(png_size(&out.join("metrics.png")), (1500, 360));
     assert_eq!(png_size(&out.join("curves.png")), (1200, 450));
 
@@ -75,5 +85,54 @@ fn report_tables_and_charts_several_runs() {
     assert_eq!(o.status.code(), Some(2));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("unfinished/test/metrics.json"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn report_over_seeds_averages_each_metric_and_lists_every_seed() {
+    let dir = scratch("report-seeds");
+    let mut returns = Vec::new();
+    for seed in [3, 4] {
+        let text = tiny_config_text("ppo", 1, 150).replace("seed = 3", &format!("seed = {seed}"));
+        let config = RunConfig::from_toml(&text, Path::new("tiny.toml")).unwrap();
+        let run = dir.join("sweep").join(format!("ppo-seed{seed}"));
+        std::fs::create_dir_all(&run).unwrap();
+        let m = train(&config, &run, Start::Fresh, |_| {}).unwrap();
+        returns.push(m.mean_return.mean);
+    }
+    let out = dir.join("out");
+    let o = Command::new(env!("CARGO_BIN_EXE_report"))
+        .arg(dir.join("sweep"))
+        .args(["--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.contains("ppo reference 16 (2 runs)"), "{md}");
+    let rows: Vec<&str> = md
+        .lines()
+        .filter(|l| l.starts_with("| mean episode reward"))
+        .collect();
+    // Mean table, IQM table (2 seeds: nothing trimmed), per-seed table.
+    let mean = (returns[0] + returns[1]) / 2.0;
+    assert!(
+        rows[0].contains(&format!("| {mean:.3} [")),
+        "{} vs {mean}",
+        rows[0]
+    );
+    assert!(rows[1].contains(&format!("| {mean:.3} [")), "{}", rows[1]);
+    assert!(
+        rows[2].contains(&format!("{:.3}, {:.3}", returns[0], returns[1])),
+        "{}",
+        rows[2]
+    );
+    let empty = dir.join("empty");
+    std::fs::create_dir_all(&empty).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_report"))
+        .arg(&empty)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("no finished run or baseline here"));
     std::fs::remove_dir_all(&dir).unwrap();
 }

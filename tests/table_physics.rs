@@ -1,8 +1,8 @@
 //! Physical behaviour of the simulated table, at the level of the rapier world.
 
-use foosball_rl::env::FoosballConfig;
 use foosball_rl::env::geometry::{self, BALL_RADIUS, RODS, foosman};
 use foosball_rl::env::table::{PhysicsParams, Table};
+use foosball_rl::env::{FoosballConfig, Preset};
 
 /// Black's goalie in the global rod order.
 const BLACK_GOALIE: usize = 4;
@@ -12,7 +12,7 @@ const YELLOW_ATTACK: usize = 3;
 /// The default config's nominal physics: 2 ms steps, 0.1 kg ball, friction 0.3,
 /// restitution 0.6, rolling resistance 0.015 g.
 fn params() -> PhysicsParams {
-    PhysicsParams::nominal(&FoosballConfig::default())
+    PhysicsParams::nominal(&FoosballConfig::preset(Preset::Paper))
 }
 
 /// Steps `table` for `seconds`, returning the largest ball y and speed seen.

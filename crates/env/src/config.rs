@@ -2,10 +2,30 @@
 //!
 //! Every struct rejects unknown keys, and [`FoosballConfig::validate`] names the offending
 //! key (dotted path, e.g. `randomization.ball_mass_scale`) and value.
+//!
+//! A configuration starts from a [`Preset`] (`preset = "reference" | "paper_reachable" |
+//! "paper" | "end_on_goal"`, default `reference`): keys written in the file
+//! override the preset's values, keys left out take them. The presets' rules, with units:
+//!
+//! | key | `paper_reachable` | `paper` | `reference` | `end_on_goal` |
+//! | --- | --- | --- | --- | --- |
+//! | `physics_dt` (s) | 0.002 | 0.002 | 0.002 | 0.002 |
+//! | `frame_skip` (physics steps per agent step) | 5 | 5 | 1 | 5 |
+//! | `max_episode_steps` (agent steps) | 4000 (40 s) | 4000 (40 s) | 20000 (40 s) | 4000 (40 s) |
+//! | `rules.stagnant_steps` (agent steps at <= `stagnant_speed` = 0.5 cm/s) | 10 (100 ms) | 10 (100 ms) | 10 (20 ms) | 10 (100 ms) |
+//! | `rules.no_progress_steps` (agent steps without +y) | 15 (150 ms) | 15 (150 ms) | 15 (30 ms) | 15 (150 ms) |
+//! | `rules.end_on_goal` | false | false | false | true |
+//! | `reward.goal` (cm) | (0, 64) | (0, 64) | (0, 65) | (0, 64) |
+//! | `reward.goal_line_y` (ball in goal when y >= it, cm) | 64 | 64 | 65 | 64 |
+//! | `reward.beta` | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 once |
+//! | `reward.zero_shaping_in_goal` (`alpha - d` is 0 in goal) | false | false | true | false |
+//! | `reward.conceded_penalty` (per step in own goal) | 0 | 0 | 1000 | 0 |
+//! | `start.y_mean` (cm) | -4.0 | -0.1 | -4.0 | -0.1 |
+//! | `ball.planar` (no vertical ball motion) | true | false | true | false |
 
-use serde::{Deserialize, Serialize};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-use crate::geometry::{BALL_MASS, GOAL_LINE_Y};
+use crate::geometry::{self, BALL_MASS, GOAL_LINE_Y};
 
 /// A setting with a value it must not take.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -33,10 +53,77 @@ impl ConfigError {
     }
 }
 
+/// A named bundle of rules (see the module docs for its values).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Preset {
+    /// The paper's rules with the ball its code used: as `Paper`, but the ball starts at
+    /// y ~ N(-4, 0.5²), in reach of yellow's midfield, and moves in the table's plane
+    /// (the reference model's ball has no z joint). The text's start at y ~ -0.1 is out
+    /// of every man's reach, and a free ball kicked hard flies off the table.
+    PaperReachable,
+    /// The paper's text made exact: `alpha - |ball_xy - (0, 64)| + beta * [ball_y >= 64]`
+    /// on every step, no end on a goal, the agent acting every 10 ms, ball start
+    /// y ~ N(-0.1, 0.5²), the ball free in 3-D.
+    Paper,
+    /// The paper's code (Foosball_CU v2 gym): one 2 ms physics step per agent step (so its
+    /// counters are 20 ms and 30 ms), goal at y >= 65 paying 1000 a step and no shaping
+    /// there, distance to (0, 65), -1000 per step in the own goal, ball start
+    /// y ~ N(-4, 0.5²) (its draws are offsets from the ball body at y = -4), planar ball.
+    /// The default: it is what produced the paper's figures, and agents learn on it.
+    #[default]
+    Reference,
+    /// This project's first rule: a goal ends the episode and pays `beta` once.
+    EndOnGoal,
+}
+
+impl Preset {
+    /// Every preset, in documentation order.
+    pub const ALL: [Preset; 4] = [
+        Preset::PaperReachable,
+        Preset::Paper,
+        Preset::Reference,
+        Preset::EndOnGoal,
+    ];
+
+    /// Its name in configuration files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Preset::PaperReachable => "paper_reachable",
+            Preset::Paper => "paper",
+            Preset::Reference => "reference",
+            Preset::EndOnGoal => "end_on_goal",
+        }
+    }
+}
+
+impl std::str::FromStr for Preset {
+    type Err = String;
+
+    /// A preset by its name, e.g. `paper_reachable`.
+    fn from_str(name: &str) -> Result<Self, String> {
+        Self::ALL
+            .into_iter()
+            .find(|p| p.name() == name)
+            .ok_or_else(|| {
+                let names: Vec<&str> = Self::ALL.iter().map(|p| p.name()).collect();
+                format!(
+                    "unknown preset `{name}`; expected one of {}",
+                    names.join(", ")
+                )
+            })
+    }
+}
+
 /// Everything that defines one foosball environment.
+///
+/// Deserialising starts from the values of the `preset` key (default `paper`) and applies
+/// the keys present on top of them.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[serde(remote = "Self", deny_unknown_fields, default)]
 pub struct FoosballConfig {
+    /// The rule set the other keys start from.
+    pub preset: Preset,
     /// Length of one physics step, s (default 0.002, the reference's).
     pub physics_dt: f32,
     /// Physics steps per agent step (default 5: the agent acts every 10 ms).
@@ -60,7 +147,15 @@ pub struct FoosballConfig {
 
 impl Default for FoosballConfig {
     fn default() -> Self {
-        Self {
+        Self::preset(Preset::default())
+    }
+}
+
+impl FoosballConfig {
+    /// The configuration of a preset (see the module docs).
+    pub fn preset(preset: Preset) -> Self {
+        let paper = Self {
+            preset,
             physics_dt: 0.002,
             frame_skip: 5,
             max_episode_steps: 4000,
@@ -70,23 +165,112 @@ impl Default for FoosballConfig {
             ball: BallConfig::default(),
             opponent: OpponentKind::Static,
             randomization: Randomization::default(),
+        };
+        let reachable_ball = (
+            StartConfig {
+                y_mean: -4.0,
+                ..paper.start
+            },
+            BallConfig {
+                planar: true,
+                ..paper.ball
+            },
+        );
+        match preset {
+            Preset::Paper => paper,
+            Preset::PaperReachable => Self {
+                start: reachable_ball.0,
+                ball: reachable_ball.1,
+                ..paper
+            },
+            Preset::Reference => Self {
+                frame_skip: 1,
+                max_episode_steps: 20_000,
+                reward: RewardConfig {
+                    goal: [0.0, 65.0],
+                    goal_line_y: 65.0,
+                    zero_shaping_in_goal: true,
+                    conceded_penalty: 1000.0,
+                    ..paper.reward
+                },
+                start: reachable_ball.0,
+                ball: reachable_ball.1,
+                ..paper
+            },
+            Preset::EndOnGoal => Self {
+                rules: EpisodeRules {
+                    end_on_goal: true,
+                    ..paper.rules
+                },
+                ..paper
+            },
         }
     }
 }
 
-/// `alpha - |ball_xy - goal| + beta * [ball_y >= goal_y] - conceded_penalty * [own goal]`.
+impl Serialize for FoosballConfig {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        FoosballConfig::serialize(self, serializer)
+    }
+}
+
+impl<'de> Deserialize<'de> for FoosballConfig {
+    /// Reads the keys as a table, lays them over the preset's values and deserialises
+    /// the result (unknown keys are refused by name).
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        let given = toml::Table::deserialize(deserializer)?;
+        let preset = match given.get("preset") {
+            Some(toml::Value::String(name)) => name.parse().map_err(D::Error::custom)?,
+            Some(other) => {
+                return Err(D::Error::custom(format!(
+                    "preset: expected a name, got `{other}`"
+                )));
+            }
+            None => Preset::default(),
+        };
+        let mut merged = toml::Table::try_from(Self::preset(preset)).map_err(D::Error::custom)?;
+        overlay(&mut merged, given);
+        FoosballConfig::deserialize(toml::Value::Table(merged))
+            .map_err(|e| D::Error::custom(e.message().trim()))
+    }
+}
+
+/// Writes `top` over `base`, table by table (values that are not tables replace).
+fn overlay(base: &mut toml::Table, top: toml::Table) {
+    for (key, value) in top {
+        match (base.get_mut(&key), value) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(t)) => overlay(b, t),
+            (_, v) => {
+                base.insert(key, v);
+            }
+        }
+    }
+}
+
+/// Per agent step: `alpha - d + beta * [in goal] - conceded_penalty * [in own goal]`, with
+/// `d = |ball_xy - goal|` (`alpha - d` is replaced by 0 in the goal under
+/// `zero_shaping_in_goal`). The ball is in
+/// black's goal when its y >= `goal_line_y` inside the mouth, in yellow's when y <=
+/// -`goal_line_y`. Under `rules.end_on_goal` the episode ends there, so the bonus or the
+/// penalty is paid once.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RewardConfig {
     /// Constant per-step offset (default 300).
     pub alpha: f32,
-    /// Bonus on the step the ball enters black's goal (default 1000).
+    /// Bonus on every step the ball is in black's goal (default 1000).
     pub beta: f32,
-    /// Penalty on the step the ball enters yellow's own goal (default 0: the paper's
-    /// reward has none).
+    /// Penalty on every step the ball is in yellow's own goal (default 0: the paper's
+    /// reward has none; the reference code's is 1000).
     pub conceded_penalty: f32,
     /// Point the distance is measured to, cm (default (0, 64), the centre of black's goal).
     pub goal: [f32; 2],
+    /// The ball is in a goal when |y| >= this, cm (default 64; the reference's 65).
+    pub goal_line_y: f32,
+    /// The `alpha - d` term is 0 while the ball is in black's goal, which then pays
+    /// `beta` alone (the reference code's rule; default false).
+    pub zero_shaping_in_goal: bool,
 }
 
 impl Default for RewardConfig {
@@ -96,20 +280,26 @@ impl Default for RewardConfig {
             beta: 1000.0,
             conceded_penalty: 0.0,
             goal: [0.0, GOAL_LINE_Y],
+            goal_line_y: GOAL_LINE_Y,
+            zero_shaping_in_goal: false,
         }
     }
 }
 
-/// When an episode ends early (all counted in agent steps).
+/// When an episode ends early (counters in agent steps: multiply by `physics_dt *
+/// frame_skip` for seconds).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct EpisodeRules {
-    /// Ball speed under which the ball counts as stagnant, cm/s (default 0.5).
+    /// Ball speed at or under which the ball counts as stagnant, cm/s (default 0.5).
     pub stagnant_speed: f32,
     /// Consecutive stagnant steps that end the episode (default 10).
     pub stagnant_steps: u32,
     /// Consecutive steps without the ball gaining y that end the episode (default 15).
     pub no_progress_steps: u32,
+    /// A goal (either side) ends the episode (default false: the paper's and its code's
+    /// episodes go on with the ball in the goal).
+    pub end_on_goal: bool,
 }
 
 impl Default for EpisodeRules {
@@ -118,6 +308,7 @@ impl Default for EpisodeRules {
             stagnant_speed: 0.5,
             stagnant_steps: 10,
             no_progress_steps: 15,
+            end_on_goal: false,
         }
     }
 }
@@ -156,6 +347,10 @@ pub struct BallConfig {
     /// Rolling resistance: deceleration of a rolling ball as a fraction of g (default
     /// 0.015, about 15 cm/s²).
     pub rolling_resistance: f32,
+    /// The ball moves in the playfield's plane only, its centre held at z = its radius
+    /// (the reference model's ball has no z joint). Default false: a kick can lift the
+    /// ball, and a ball lifted off the table ends the episode as a physics fault.
+    pub planar: bool,
 }
 
 impl Default for BallConfig {
@@ -165,6 +360,7 @@ impl Default for BallConfig {
             friction: 0.3,
             restitution: 0.6,
             rolling_resistance: 0.015,
+            planar: false,
         }
     }
 }
@@ -284,6 +480,17 @@ impl FoosballConfig {
         finite("reward.conceded_penalty", self.reward.conceded_penalty)?;
         finite("reward.goal[0]", self.reward.goal[0])?;
         finite("reward.goal[1]", self.reward.goal[1])?;
+        let line = self.reward.goal_line_y;
+        let deepest = geometry::GOAL_POCKET_BACK - geometry::BALL_RADIUS;
+        if !(line.is_finite() && line > geometry::FIELD_HALF_LENGTH && line < deepest) {
+            return Err(ConfigError::new(
+                "reward.goal_line_y",
+                format!(
+                    "must lie where the ball's centre can go in the goal pocket ({} < y < {deepest}), got {line}",
+                    geometry::FIELD_HALF_LENGTH,
+                ),
+            ));
+        }
         non_negative("rules.stagnant_speed", self.rules.stagnant_speed)?;
         at_least_one("rules.stagnant_steps", self.rules.stagnant_steps)?;
         at_least_one("rules.no_progress_steps", self.rules.no_progress_steps)?;

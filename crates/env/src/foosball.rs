@@ -1,10 +1,11 @@
 //! [`FoosballEnv`]: yellow (the agent) against a black [`Opponent`] on the simulated table.
 //!
 //! One agent step holds the action for `frame_skip` physics steps of `physics_dt`. The
-//! reward is `alpha - |ball_xy - goal| + beta * [scored] - conceded_penalty * [conceded]`
-//! on the ball's position after the step. An episode ends when the ball enters a goal
-//! (terminated), stays slower than `rules.stagnant_speed` for `rules.stagnant_steps`
-//! steps or gains no y for `rules.no_progress_steps` steps (terminated), reaches
+//! reward is `alpha - d + beta * [in goal] - conceded_penalty * [in own goal]` on the
+//! ball's position after the step (see [`crate::config::RewardConfig`]), paid on every
+//! step. An episode ends when the ball stays at or under `rules.stagnant_speed` for
+//! `rules.stagnant_steps` steps or gains no y for `rules.no_progress_steps` steps
+//! (terminated), when it enters a goal under `rules.end_on_goal` (terminated), reaches
 //! `max_episode_steps` (truncated), or the physics fails: a non-finite state or a ball
 //! out of the table (truncated, flagged as [`EndReason::PhysicsFault`]).
 
@@ -15,7 +16,7 @@ use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
 use crate::EnvRng;
-use crate::config::{ConfigError, FoosballConfig};
+use crate::config::{ConfigError, EpisodeRules, FoosballConfig};
 use crate::env::{Env, EnvError, Transition, check_action};
 use crate::geometry::{self, NUM_RODS};
 use crate::layout::{
@@ -29,9 +30,9 @@ use crate::table::{PhysicsParams, Table};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum EndReason {
-    /// The ball entered black's goal (terminated).
+    /// The ball entered black's goal under `rules.end_on_goal` (terminated).
     Scored,
-    /// The ball entered yellow's own goal (terminated).
+    /// The ball entered yellow's own goal under `rules.end_on_goal` (terminated).
     Conceded,
     /// The ball stayed slower than `rules.stagnant_speed` too long (terminated).
     Stagnant,
@@ -44,6 +45,28 @@ pub enum EndReason {
 }
 
 impl EndReason {
+    /// Every reason, in a fixed order (for tallies).
+    pub const ALL: [EndReason; 6] = [
+        EndReason::Scored,
+        EndReason::Conceded,
+        EndReason::Stagnant,
+        EndReason::NoProgress,
+        EndReason::TimeLimit,
+        EndReason::PhysicsFault,
+    ];
+
+    /// Its name in logs (snake case).
+    pub fn name(self) -> &'static str {
+        match self {
+            EndReason::Scored => "scored",
+            EndReason::Conceded => "conceded",
+            EndReason::Stagnant => "stagnant",
+            EndReason::NoProgress => "no_progress",
+            EndReason::TimeLimit => "time_limit",
+            EndReason::PhysicsFault => "physics_fault",
+        }
+    }
+
     /// True where the episode reached a terminal state; false for truncations.
     pub fn is_terminal(self) -> bool {
         !matches!(self, EndReason::TimeLimit | EndReason::PhysicsFault)
@@ -61,17 +84,25 @@ pub struct FoosballInfo {
     pub ball_speed: f32,
     /// Agent steps taken in this episode so far, this one included.
     pub steps: u32,
+    /// The ball is in black's goal after this step.
+    pub in_goal: bool,
+    /// The ball is in yellow's own goal after this step.
+    pub in_own_goal: bool,
+    /// The ball has been in black's goal at some step of this episode, this one included.
+    pub episode_scored: bool,
+    /// The ball has been in yellow's goal at some step of this episode, this one included.
+    pub episode_conceded: bool,
 }
 
 impl FoosballInfo {
-    /// The ball entered black's goal on this step.
+    /// The episode has scored (so far): the ball has been in black's goal.
     pub fn scored(&self) -> bool {
-        self.end == Some(EndReason::Scored)
+        self.episode_scored
     }
 
-    /// The ball entered yellow's goal on this step.
+    /// The episode has conceded (so far): the ball has been in yellow's goal.
     pub fn conceded(&self) -> bool {
-        self.end == Some(EndReason::Conceded)
+        self.episode_conceded
     }
 
     /// The physics failed on this step (the observation is the last good one).
@@ -99,6 +130,8 @@ struct Episode {
     stagnant_steps: u32,
     no_progress_steps: u32,
     prev_ball_y: f32,
+    scored: bool,
+    conceded: bool,
     pending: VecDeque<[f32; ACTION_DIM]>,
     /// Noise-free observation after the last step.
     state: [f32; OBS_DIM],
@@ -239,19 +272,26 @@ impl FoosballEnv {
     }
 }
 
-/// Where the ball is: in a goal, out of the table (or non-finite), or in play.
-fn ball_event(table: &Table) -> Option<EndReason> {
+/// Which goal the ball at `(x, y)` is in: `(black's, yellow's)`.
+fn goals(x: f32, y: f32, line_y: f32) -> (bool, bool) {
+    let in_mouth = x.abs() <= geometry::GOAL_HALF_WIDTH;
+    (in_mouth && y >= line_y, in_mouth && y <= -line_y)
+}
+
+/// Where the ball is: in a goal that ends the episode, out of the table (or
+/// non-finite), or in play.
+fn ball_event(table: &Table, rules: &EpisodeRules, line_y: f32) -> Option<EndReason> {
     let [x, y, z] = table.ball_position();
     let v = table.ball_velocity();
     if !(x.is_finite() && y.is_finite() && z.is_finite() && v.iter().all(|c| c.is_finite())) {
         return Some(EndReason::PhysicsFault);
     }
-    let in_mouth = x.abs() <= geometry::GOAL_HALF_WIDTH;
-    if in_mouth && y >= geometry::GOAL_LINE_Y {
-        return Some(EndReason::Scored);
-    }
-    if in_mouth && y <= -geometry::GOAL_LINE_Y {
-        return Some(EndReason::Conceded);
+    if rules.end_on_goal {
+        match goals(x, y, line_y) {
+            (true, _) => return Some(EndReason::Scored),
+            (_, true) => return Some(EndReason::Conceded),
+            _ => {}
+        }
     }
     let margin = 1.0;
     let out = x.abs() > geometry::FIELD_HALF_WIDTH + margin
@@ -292,6 +332,8 @@ impl Env for FoosballEnv {
             stagnant_steps: 0,
             no_progress_steps: 0,
             prev_ball_y: y,
+            scored: false,
+            conceded: false,
             pending: VecDeque::new(),
             state,
             over: false,
@@ -328,9 +370,10 @@ impl Env for FoosballEnv {
         Self::set_targets(table, 4, &black);
 
         let mut event = None;
+        let line_y = self.config.reward.goal_line_y;
         for _ in 0..self.config.frame_skip {
             table.step();
-            event = ball_event(table);
+            event = ball_event(table, &self.config.rules, line_y);
             if event.is_some() {
                 break;
             }
@@ -344,7 +387,7 @@ impl Env for FoosballEnv {
         ep.steps += 1;
         let speed = state[BALL_VEL].iter().map(|v| v * v).sum::<f32>().sqrt();
         let rules = &self.config.rules;
-        ep.stagnant_steps = if speed < rules.stagnant_speed {
+        ep.stagnant_steps = if speed <= rules.stagnant_speed {
             ep.stagnant_steps + 1
         } else {
             0
@@ -370,13 +413,22 @@ impl Env for FoosballEnv {
         ep.over = end.is_some();
         let steps = ep.steps;
 
+        let (in_goal, in_own_goal) = goals(state[BALL_POS.start], y, line_y);
+        ep.scored |= in_goal;
+        ep.conceded |= in_own_goal;
+        let (episode_scored, episode_conceded) = (ep.scored, ep.conceded);
         let goal_distance = self.goal_distance(&state[BALL_POS]);
         let rw = &self.config.reward;
-        let mut reward = rw.alpha - goal_distance;
-        match end {
-            Some(EndReason::Scored) => reward += rw.beta,
-            Some(EndReason::Conceded) => reward -= rw.conceded_penalty,
-            _ => {}
+        let mut reward = if in_goal && rw.zero_shaping_in_goal {
+            0.0
+        } else {
+            rw.alpha - goal_distance
+        };
+        if in_goal {
+            reward += rw.beta;
+        }
+        if in_own_goal {
+            reward -= rw.conceded_penalty;
         }
         self.emit(&state, obs);
         Ok(Transition {
@@ -388,6 +440,10 @@ impl Env for FoosballEnv {
                 goal_distance,
                 ball_speed: speed,
                 steps,
+                in_goal,
+                in_own_goal,
+                episode_scored,
+                episode_conceded,
             },
         })
     }

@@ -5,6 +5,7 @@
 //! - [`Pendulum`]: Gymnasium's `Pendulum-v1`, exact, for validating learners.
 //! - [`VecEnv`]: many environments stepped in parallel with rayon, auto-reset,
 //!   reproducible whatever the thread count.
+//! - [`scripted`]: hand-written shooter and dribbler, the yardsticks for learners.
 //! - [`geometry`] and [`layout`]: the table's numbers and the observation/action index
 //!   table; [`seeding`]: how every random stream derives from one run seed.
 //!
@@ -17,12 +18,13 @@ pub mod geometry;
 pub mod layout;
 pub mod opponent;
 pub mod pendulum;
+pub mod scripted;
 pub mod seeding;
 pub mod servo;
 pub mod table;
 pub mod vec_env;
 
-pub use config::{ConfigError, FoosballConfig, OpponentKind, Randomization};
+pub use config::{ConfigError, FoosballConfig, OpponentKind, Preset, Randomization};
 pub use env::{Env, EnvError, Transition};
 pub use foosball::{EndReason, FoosballEnv, FoosballInfo};
 pub use opponent::Opponent;

@@ -39,6 +39,8 @@ pub struct PhysicsParams {
     pub rolling_resistance: f32,
     /// Multiplier on every servo's kp and kv.
     pub servo_gain_scale: f32,
+    /// The ball's centre stays at z = its radius (no vertical motion).
+    pub ball_planar: bool,
 }
 
 impl PhysicsParams {
@@ -51,6 +53,7 @@ impl PhysicsParams {
             ball_restitution: config.ball.restitution,
             rolling_resistance: config.ball.rolling_resistance,
             servo_gain_scale: 1.0,
+            ball_planar: config.ball.planar,
         }
     }
 }
@@ -294,6 +297,11 @@ impl Table {
             RigidBodyBuilder::dynamic()
                 .translation(Vector::new(ball_xy[0], ball_xy[1], geometry::BALL_RADIUS))
                 .ccd_enabled(true)
+                .locked_axes(if params.ball_planar {
+                    LockedAxes::TRANSLATION_LOCKED_Z
+                } else {
+                    LockedAxes::empty()
+                })
                 .can_sleep(false),
         );
         let ball_collider = ColliderBuilder::ball(geometry::BALL_RADIUS)

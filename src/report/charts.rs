@@ -1,0 +1,245 @@
+//! The report's PNG charts: a bar per group for each test metric (mean over seeds, 95 %
+//! interval, a dot per seed), and learning curves (mean over seeds with a 95 % band).
+
+use super::{EvalPoint, Group, ReportError, error};
+use crate::metrics::Estimate;
+use crate::stats::{self, mean};
+use plotters::prelude::*;
+use std::path::Path;
+
+/// Registers the bundled DejaVu Sans for chart text (once per process).
+fn register_font() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular())
+            .map_err(|_| ())
+            .expect("DejaVu Sans is a valid font");
+    });
+}
+
+/// An axis label with as many decimals as an axis spanning `span` needs.
+fn tick(v: f64, span: f64) -> String {
+    let decimals = if span >= 100.0 {
+        0
+    } else if span >= 1.0 {
+        2
+    } else {
+        3
+    };
+    format!("{v:.decimals$}")
+}
+
+/// One colour per run.
+fn colour(i: usize) -> RGBColor {
+    let (r, g, b) = Palette99::pick(i).to_rgba().rgb();
+    RGBColor(r, g, b)
+}
+
+type Drawing<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
+type DrawError =
+    DrawingAreaErrorKind<<BitMapBackend<'static> as plotters::backend::DrawingBackend>::ErrorType>;
+
+/// Draws a PNG of `size` pixels with `draw` into a temporary file renamed to `path`.
+fn png(
+    path: &Path,
+    size: (u32, u32),
+    draw: impl FnOnce(&Drawing<'_>) -> Result<(), DrawError>,
+) -> Result<(), ReportError> {
+    register_font();
+    let tmp = path.with_extension("tmp.png");
+    {
+        let root = BitMapBackend::new(&tmp, size).into_drawing_area();
+        root.fill(&WHITE)
+            .and_then(|()| draw(&root))
+            .and_then(|()| root.present())
+            .map_err(|e| error(path, e))?;
+    }
+    std::fs::rename(&tmp, path).map_err(|e| error(path, e))
+}
+
+/// Writes a PNG bar chart of the five paper metrics (one panel each; a bar per group with
+/// its 95 % interval and a dot per seed) to `path`.
+pub fn metrics_chart(groups: &[Group], path: &Path) -> Result<(), ReportError> {
+    let summaries: Vec<_> = groups.iter().map(Group::summaries).collect();
+    png(path, (1500, 360), |root| {
+        for (k, panel) in root.split_evenly((1, 5)).iter().enumerate() {
+            let title = summaries[0][k].metric;
+            let bars: Vec<(Estimate, &[f64])> = summaries
+                .iter()
+                .map(|s| (s[k].mean, s[k].per_seed.as_slice()))
+                .collect();
+            bar_panel(panel, title, &bars)?;
+        }
+        Ok(())
+    })
+}
+
+fn bar_panel(
+    area: &Drawing<'_>,
+    title: &str,
+    bars: &[(Estimate, &[f64])],
+) -> Result<(), DrawError> {
+    let values = bars
+        .iter()
+        .flat_map(|(e, seeds)| {
+            [e.mean, e.ci95[0], e.ci95[1]]
+                .into_iter()
+                .chain(seeds.iter().copied())
+        })
+        .filter(|v| v.is_finite());
+    let (bottom, top) = values.fold((0.0f64, 0.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
+    let top = if top - bottom < 1e-12 {
+        bottom + 1.0
+    } else {
+        top
+    };
+    let pad = 0.1 * (top - bottom);
+    let n = bars.len();
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, ("sans-serif", 16))
+        .margin(8)
+        .x_label_area_size(10)
+        .y_label_area_size(55)
+        .build_cartesian_2d(0.0..n as f64, (bottom - pad).min(0.0)..top + pad)?;
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .disable_x_axis()
+        .y_labels(6)
+        .y_label_formatter(&|v| tick(*v, top - bottom))
+        .label_style(("sans-serif", 12))
+        .draw()?;
+    for (i, (e, seeds)) in bars.iter().enumerate() {
+        let x = i as f64;
+        let c = colour(i);
+        chart.draw_series([Rectangle::new(
+            [(x + 0.15, 0.0), (x + 0.85, e.mean)],
+            c.mix(0.6).filled(),
+        )])?;
+        chart.draw_series([PathElement::new(
+            vec![(x + 0.5, e.ci95[0]), (x + 0.5, e.ci95[1])],
+            BLACK.stroke_width(2),
+        )])?;
+        if seeds.len() > 1 {
+            let k = seeds.len() as f64;
+            chart.draw_series(seeds.iter().enumerate().map(|(j, v)| {
+                Circle::new(
+                    (x + 0.3 + 0.4 * j as f64 / (k - 1.0), *v),
+                    3,
+                    BLACK.filled(),
+                )
+            }))?;
+        }
+    }
+    Ok(())
+}
+
+/// The mean over a group's seeds of an evaluation value at each env step that every seed
+/// evaluated, with its 95 % bootstrap band: `(step, mean, low, high)`.
+fn band(group: &Group, value: fn(&EvalPoint) -> f64) -> Vec<(f64, f64, f64, f64)> {
+    let first = &group.runs[0].evaluations;
+    first
+        .iter()
+        .enumerate()
+        .filter_map(|(i, p)| {
+            let at: Vec<f64> = group
+                .runs
+                .iter()
+                .map(|r| r.evaluations.get(i).filter(|q| q.0 == p.0).map(value))
+                .collect::<Option<_>>()?;
+            let e = if at.len() > 1 {
+                stats::over_seeds(&at, mean)
+            } else {
+                Estimate {
+                    mean: at[0],
+                    ci95: [at[0], at[0]],
+                }
+            };
+            Some((p.0 as f64, e.mean, e.ci95[0], e.ci95[1]))
+        })
+        .collect()
+}
+
+/// Writes a PNG of the learner groups' learning curves (evaluation mean return and score
+/// rate against env steps: mean over seeds with a 95 % band) to `path`.
+pub fn learning_curves(groups: &[Group], path: &Path) -> Result<(), ReportError> {
+    type Series = (&'static str, fn(&EvalPoint) -> f64, Option<(f64, f64)>);
+    let series: [Series; 2] = [
+        ("evaluation mean return", |e| e.1, None),
+        ("evaluation score rate", |e| e.2, Some((0.0, 1.0))),
+    ];
+    let learners: Vec<&Group> = groups.iter().filter(|g| !g.runs[0].is_baseline()).collect();
+    png(path, (1200, 450), |root| {
+        for (panel, (title, value, range)) in root.split_evenly((1, 2)).iter().zip(series) {
+            let bands: Vec<(String, Vec<(f64, f64, f64, f64)>)> = learners
+                .iter()
+                .map(|g| {
+                    (
+                        format!("{} ({} seeds)", g.label, g.runs.len()),
+                        band(g, value),
+                    )
+                })
+                .collect();
+            curve_panel(panel, title, &bands, range)?;
+        }
+        Ok(())
+    })
+}
+
+fn curve_panel(
+    area: &Drawing<'_>,
+    title: &str,
+    bands: &[(String, Vec<(f64, f64, f64, f64)>)],
+    range: Option<(f64, f64)>,
+) -> Result<(), DrawError> {
+    let points = bands.iter().flat_map(|(_, b)| b.iter());
+    let max_step = points.clone().map(|p| p.0).fold(1.0, f64::max);
+    let (lo, hi) = points
+        .flat_map(|p| [p.2, p.3])
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+    let (lo, hi) = match range {
+        Some(fixed) => fixed,
+        None if lo.is_finite() => (lo, hi),
+        None => (0.0, 1.0),
+    };
+    let pad = (0.05 * (hi - lo)).max(0.05 * hi.abs()).max(1e-3);
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, ("sans-serif", 18))
+        .margin(10)
+        .x_label_area_size(35)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..max_step, lo - pad..hi + pad)?;
+    chart
+        .configure_mesh()
+        .x_desc("env steps")
+        .x_label_formatter(&|v| format!("{v:.0}"))
+        .y_label_formatter(&|v| tick(*v, hi - lo + 2.0 * pad))
+        .label_style(("sans-serif", 12))
+        .draw()?;
+    for (i, (label, band)) in bands.iter().enumerate() {
+        let c = colour(i);
+        let outline: Vec<(f64, f64)> = band
+            .iter()
+            .map(|p| (p.0, p.3))
+            .chain(band.iter().rev().map(|p| (p.0, p.2)))
+            .collect();
+        chart.draw_series([Polygon::new(outline, c.mix(0.2).filled())])?;
+        chart
+            .draw_series(LineSeries::new(
+                band.iter().map(|p| (p.0, p.1)),
+                c.stroke_width(2),
+            ))?
+            .label(label.as_str())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 12))
+        .draw()?;
+    Ok(())
+}

@@ -1,0 +1,382 @@
+//! Comparing runs, like the paper's Figure 2: runs grouped by algorithm, table preset and
+//! network; for each of the test metrics the mean and the interquartile mean over seeds
+//! with 95 % bootstrap intervals ([`crate::stats`]), per-seed values, scripted baselines
+//! beside them, the paper's figures and a verdict per claim of the paper ([`claims`]);
+//! PNG charts ([`charts`]) and JSON.
+//!
+//! A group of one run shows that run's own test interval (over its episodes) instead.
+
+pub mod charts;
+pub mod claims;
+
+use crate::config::{ConfigFileError, RunConfig};
+use crate::metrics::{Estimate, TestMetrics};
+use crate::policy::ScriptedPolicy;
+use crate::run_dir::{RunFileError, write_atomic};
+use crate::stats::{self, iqm, mean};
+use foosball_env::FoosballConfig;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// What `evaluate --policy` tested, saved beside its metrics as `baseline.toml`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Baseline {
+    /// The scripted policy.
+    pub policy: ScriptedPolicy,
+    /// The seed the test seeds derive from.
+    pub seed: u64,
+    /// The table it played on.
+    pub env: FoosballConfig,
+}
+
+impl Baseline {
+    /// Writes `dir/baseline.toml`.
+    pub fn write(&self, dir: &Path) -> Result<(), RunFileError> {
+        let text = toml::to_string_pretty(self).expect("a baseline always serialises");
+        write_atomic(&dir.join("baseline.toml"), text.as_bytes())
+    }
+}
+
+/// A run directory that cannot be reported on, or a report file that could not be
+/// written; names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    /// The run's configuration is missing or unreadable.
+    #[error(transparent)]
+    Config(#[from] ConfigFileError),
+    /// Another file could not be read or written.
+    #[error("{path}: {message}")]
+    File {
+        /// The file at fault.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+}
+
+fn error(path: &Path, message: impl ToString) -> ReportError {
+    ReportError::File {
+        path: path.to_path_buf(),
+        message: message.to_string(),
+    }
+}
+
+/// One evaluation row: `(env_step, mean_return, score_rate)`.
+pub type EvalPoint = (u64, f64, f64);
+
+/// A finished run's or a baseline's results.
+#[derive(Clone, Debug)]
+pub struct RunResults {
+    /// The directory's name.
+    pub name: String,
+    /// What played: `ppo`, `sac`, `td3`, or a scripted policy's name.
+    pub player: String,
+    /// The table's rule preset.
+    pub preset: String,
+    /// Hidden widths of the networks (empty for a scripted policy).
+    pub hidden: Vec<usize>,
+    /// The test metrics (`test/metrics.json`, or `metrics.json` of a baseline).
+    pub metrics: TestMetrics,
+    /// `evaluations.csv` (empty for a baseline).
+    pub evaluations: Vec<EvalPoint>,
+}
+
+fn read_metrics(path: &Path) -> Result<TestMetrics, ReportError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| error(path, format!("{e} (has the run finished its test?)")))?;
+    serde_json::from_str(&text).map_err(|e| error(path, e))
+}
+
+/// Reads `evaluations.csv` by its header's column names.
+fn read_evaluations(path: &Path) -> Result<Vec<EvalPoint>, ReportError> {
+    let Ok(text) = std::fs::read_to_string(path) else {
+        return Ok(Vec::new());
+    };
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
+    let col = |name: &str| {
+        header
+            .iter()
+            .position(|h| *h == name)
+            .ok_or_else(|| error(path, format!("no `{name}` column")))
+    };
+    let (step, ret, score) = (col("env_step")?, col("mean_return")?, col("score_rate")?);
+    lines
+        .enumerate()
+        .map(|(i, line)| {
+            let cols: Vec<&str> = line.split(',').collect();
+            let bad = || error(path, format!("line {}: not a number", i + 2));
+            let num = |k: usize| cols.get(k).and_then(|v| v.parse::<f64>().ok());
+            Ok((
+                cols.get(step)
+                    .and_then(|v| v.parse::<u64>().ok())
+                    .ok_or_else(bad)?,
+                num(ret).ok_or_else(bad)?,
+                num(score).ok_or_else(bad)?,
+            ))
+        })
+        .collect()
+}
+
+fn dir_name(dir: &Path) -> String {
+    dir.canonicalize()
+        .ok()
+        .and_then(|d| d.file_name().map(|n| n.to_string_lossy().to_string()))
+        .unwrap_or_else(|| dir.display().to_string())
+}
+
+impl RunResults {
+    /// Reads the run in `dir` (it must have finished its test).
+    pub fn read(dir: &Path) -> Result<Self, ReportError> {
+        let config = RunConfig::load_run(dir)?;
+        Ok(Self {
+            name: dir_name(dir),
+            player: config.algo.to_string(),
+            preset: config.env.preset.name().to_string(),
+            hidden: config.hidden().to_vec(),
+            metrics: read_metrics(&dir.join("test/metrics.json"))?,
+            evaluations: read_evaluations(&dir.join("evaluations.csv"))?,
+        })
+    }
+
+    /// Reads the baseline written by `evaluate --policy` in `dir`.
+    pub fn read_baseline(dir: &Path) -> Result<Self, ReportError> {
+        let path = dir.join("baseline.toml");
+        let text = std::fs::read_to_string(&path).map_err(|e| error(&path, e))?;
+        let b: Baseline = toml::from_str(&text).map_err(|e| error(&path, e.message().trim()))?;
+        Ok(Self {
+            name: dir_name(dir),
+            player: b.policy.name().to_string(),
+            preset: b.env.preset.name().to_string(),
+            hidden: Vec::new(),
+            metrics: read_metrics(&dir.join("metrics.json"))?,
+            evaluations: Vec::new(),
+        })
+    }
+
+    /// Whether a scripted policy played (not a trained agent).
+    pub fn is_baseline(&self) -> bool {
+        self.hidden.is_empty()
+    }
+}
+
+/// Every result under `paths`: a run directory (`config.toml`), a baseline directory
+/// (`baseline.toml`), or a directory of those (a sweep), searched one level down. Runs
+/// of a sweep that have not finished their test are skipped and named in the second
+/// list; a run named directly must have finished.
+pub fn collect(paths: &[PathBuf]) -> Result<(Vec<RunResults>, Vec<String>), ReportError> {
+    let mut found = Vec::new();
+    let mut unfinished = Vec::new();
+    for path in paths {
+        if path.join("baseline.toml").is_file() {
+            found.push(RunResults::read_baseline(path)?);
+        } else if path.join("config.toml").is_file() || !path.is_dir() {
+            found.push(RunResults::read(path)?);
+        } else {
+            let mut dirs: Vec<PathBuf> = std::fs::read_dir(path)
+                .map_err(|e| error(path, e))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.is_dir())
+                .collect();
+            dirs.sort();
+            for dir in dirs {
+                if dir.join("baseline.toml").is_file() {
+                    found.push(RunResults::read_baseline(&dir)?);
+                } else if dir.join("test/metrics.json").is_file() {
+                    found.push(RunResults::read(&dir)?);
+                } else if dir.join("config.toml").is_file() {
+                    unfinished.push(dir.display().to_string());
+                }
+            }
+        }
+    }
+    if found.is_empty() {
+        let names: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
+        return Err(error(
+            Path::new(&names.join(" ")),
+            "no finished run or baseline here",
+        ));
+    }
+    Ok((found, unfinished))
+}
+
+/// Runs of one algorithm (or one scripted policy) on one preset with one network shape.
+#[derive(Clone, Debug)]
+pub struct Group {
+    /// E.g. `sac paper 64x64` or `shooter paper`.
+    pub label: String,
+    /// Algorithm or scripted policy name.
+    pub player: String,
+    /// Table preset.
+    pub preset: String,
+    /// Its runs (seeds), in the order given.
+    pub runs: Vec<RunResults>,
+}
+
+/// Groups runs by player, preset and network, in order of first appearance (baselines
+/// after the learners).
+pub fn group(runs: Vec<RunResults>) -> Vec<Group> {
+    let mut groups: Vec<Group> = Vec::new();
+    let (learners, baselines): (Vec<_>, Vec<_>) = runs.into_iter().partition(|r| !r.is_baseline());
+    for r in learners.into_iter().chain(baselines) {
+        let widths: Vec<String> = r.hidden.iter().map(ToString::to_string).collect();
+        let label = if r.is_baseline() {
+            format!("{} {}", r.player, r.preset)
+        } else {
+            format!("{} {} {}", r.player, r.preset, widths.join("x"))
+        };
+        match groups.iter_mut().find(|g| g.label == label) {
+            Some(g) => g.runs.push(r),
+            None => groups.push(Group {
+                label,
+                player: r.player.clone(),
+                preset: r.preset.clone(),
+                runs: vec![r],
+            }),
+        }
+    }
+    groups
+}
+
+/// One metric of one group.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct MetricSummary {
+    /// The metric's name.
+    pub metric: &'static str,
+    /// Each run's test value, in run order.
+    pub per_seed: Vec<f64>,
+    /// Mean over seeds with its interval (a lone run: its own test interval).
+    pub mean: Estimate,
+    /// Interquartile mean over seeds with its interval (a lone run: as `mean`).
+    pub iqm: Estimate,
+}
+
+impl Group {
+    /// The per-seed values of metric `k` (in [`TestMetrics::rows`] order).
+    pub fn values(&self, k: usize) -> Vec<f64> {
+        self.runs
+            .iter()
+            .map(|r| r.metrics.rows()[k].1.mean)
+            .collect()
+    }
+
+    /// Every metric's summary over the group's seeds.
+    pub fn summaries(&self) -> Vec<MetricSummary> {
+        self.runs[0]
+            .metrics
+            .rows()
+            .iter()
+            .enumerate()
+            .map(|(k, (metric, own))| {
+                let per_seed = self.values(k);
+                let (m, q) = if per_seed.len() == 1 {
+                    (*own, *own)
+                } else {
+                    (
+                        stats::over_seeds(&per_seed, mean),
+                        stats::over_seeds(&per_seed, iqm),
+                    )
+                };
+                MetricSummary {
+                    metric,
+                    per_seed,
+                    mean: m,
+                    iqm: q,
+                }
+            })
+            .collect()
+    }
+}
+
+fn cell(e: &Estimate) -> String {
+    format!("{:.3} [{:.3}, {:.3}]", e.mean, e.ci95[0], e.ci95[1])
+}
+
+/// Markdown tables: the mean and the IQM over seeds of each metric per group, then the
+/// per-seed values.
+pub fn markdown_tables(groups: &[Group]) -> String {
+    let summaries: Vec<Vec<MetricSummary>> = groups.iter().map(Group::summaries).collect();
+    let header = |what: &str| {
+        let mut out = format!("| {what} |");
+        for g in groups {
+            out += &format!(
+                " {} ({} run{}) |",
+                g.label,
+                g.runs.len(),
+                if g.runs.len() == 1 { "" } else { "s" }
+            );
+        }
+        out += "\n| --- |";
+        out += &" --- |".repeat(groups.len());
+        out + "\n"
+    };
+    let mut out = String::new();
+    for (title, pick) in [
+        (
+            "mean over seeds [95 % CI]",
+            (|s: &MetricSummary| s.mean) as fn(&MetricSummary) -> Estimate,
+        ),
+        ("IQM over seeds [95 % CI]", |s: &MetricSummary| s.iqm),
+    ] {
+        out += &header(title);
+        for (k, s) in summaries[0].iter().enumerate() {
+            out += &format!("| {} |", s.metric);
+            for g in &summaries {
+                out += &format!(" {} |", cell(&pick(&g[k])));
+            }
+            out.push('\n');
+        }
+        out.push('\n');
+    }
+    out += &header("per seed (run order)");
+    for (k, s) in summaries[0].iter().enumerate() {
+        out += &format!("| {} |", s.metric);
+        for g in &summaries {
+            let v: Vec<String> = g[k].per_seed.iter().map(|v| format!("{v:.3}")).collect();
+            out += &format!(" {} |", v.join(", "));
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// Writes `report.md`, `report.json`, `metrics.png` and `curves.png` into `out` for the
+/// results of `paths` (see [`collect`]); returns the markdown.
+pub fn write_report(paths: &[PathBuf], out: &Path) -> Result<String, ReportError> {
+    let (runs, unfinished) = collect(paths)?;
+    let groups = group(runs);
+    std::fs::create_dir_all(out).map_err(|e| error(out, e))?;
+    charts::metrics_chart(&groups, &out.join("metrics.png"))?;
+    charts::learning_curves(&groups, &out.join("curves.png"))?;
+    let verdicts = claims::verdicts(&groups);
+    let mut md = String::from("# Test metrics over seeds\n\n");
+    md += &markdown_tables(&groups);
+    md += &format!(
+        "\nIntervals: percentile bootstrap over seeds ({} resamples); a group of one run \
+         shows its test interval over episodes.\n",
+        stats::RESAMPLES
+    );
+    md += "\n![test metrics](metrics.png)\n\nBars in column order, dots are seeds. ";
+    md += "\n\n![learning curves](curves.png)\n\n";
+    md += &claims::markdown(&verdicts);
+    if !unfinished.is_empty() {
+        md += &format!("\nNot finished (left out): {}\n", unfinished.join(", "));
+    }
+    let json = serde_json::json!({
+        "groups": groups.iter().map(|g| serde_json::json!({
+            "label": g.label,
+            "player": g.player,
+            "preset": g.preset,
+            "runs": g.runs.iter().map(|r| &r.name).collect::<Vec<_>>(),
+            "metrics": g.summaries(),
+        })).collect::<Vec<_>>(),
+        "claims": verdicts,
+        "unfinished": unfinished,
+    });
+    let json = serde_json::to_string_pretty(&json).expect("metrics serialise");
+    write_atomic(&out.join("report.json"), json.as_bytes())
+        .map_err(|e| error(&e.path, e.source))?;
+    write_atomic(&out.join("report.md"), md.as_bytes()).map_err(|e| error(&e.path, e.source))?;
+    Ok(md)
+}
