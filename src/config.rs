@@ -101,6 +101,25 @@ pub struct RunConfig {
     pub td3: Option<Td3Config>,
 }
 
+/// Command-line overrides of a run configuration (`None`: keep the file's value).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Overrides {
+    /// `protocol.seed`.
+    pub seed: Option<u64>,
+    /// `protocol.epochs`.
+    pub epochs: Option<u32>,
+    /// `protocol.steps_per_epoch`.
+    pub steps_per_epoch: Option<u64>,
+    /// `protocol.envs`.
+    pub envs: Option<usize>,
+    /// `protocol.threads`.
+    pub threads: Option<usize>,
+    /// `<algo>.net.hidden`.
+    pub hidden: Option<Vec<usize>>,
+    /// `env`, replaced whole (e.g. by a preset's values).
+    pub env: Option<FoosballConfig>,
+}
+
 /// A configuration that could not be used; `Display` names the file, line and key.
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigFileError {
@@ -150,6 +169,46 @@ impl RunConfig {
             source,
         })?;
         Self::from_toml(&text, path)
+    }
+
+    /// Reads `path`, checks it trains `algo` (when given), applies `overrides` and checks
+    /// the result; the error names the file and the key.
+    pub fn load_with(
+        path: &Path,
+        algo: Option<Algo>,
+        overrides: &Overrides,
+    ) -> Result<Self, String> {
+        let mut c = Self::load(path).map_err(|e| e.to_string())?;
+        if let Some(algo) = algo
+            && algo != c.algo
+        {
+            return Err(format!(
+                "--algo {algo} but {} has algo = \"{}\"",
+                path.display(),
+                c.algo
+            ));
+        }
+        let (o, p) = (overrides, &mut c.protocol);
+        p.seed = o.seed.unwrap_or(p.seed);
+        p.epochs = o.epochs.unwrap_or(p.epochs);
+        p.steps_per_epoch = o.steps_per_epoch.unwrap_or(p.steps_per_epoch);
+        p.envs = o.envs.unwrap_or(p.envs);
+        p.threads = o.threads.unwrap_or(p.threads);
+        if let Some(hidden) = &o.hidden {
+            c.set_hidden(hidden.clone());
+        }
+        if let Some(env) = &o.env {
+            c.env = env.clone();
+        }
+        c.validate().map_err(|e| {
+            format!(
+                "{} (after command-line overrides): {}: {}",
+                path.display(),
+                e.key,
+                e.message
+            )
+        })?;
+        Ok(c)
     }
 
     /// The saved configuration of the run in `dir` (its `config.toml`).

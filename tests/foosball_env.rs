@@ -4,45 +4,17 @@
 use foosball_rl::env::geometry::{BALL_RADIUS, GOAL_LINE_Y};
 use foosball_rl::env::layout::{ACTION_DIM, BALL_POS, OBS_DIM, ROD_ANGLE, ROD_SLIDE};
 use foosball_rl::env::{
-    EndReason, Env, EnvError, EnvRng, FoosballConfig, FoosballEnv, FoosballInfo, OpponentKind,
-    Preset, Transition,
+    EndReason, Env, EnvError, EnvRng, FoosballConfig, FoosballEnv, OpponentKind, Preset,
 };
 use rand::{Rng, SeedableRng};
 
-const NEUTRAL: [f32; ACTION_DIM] = [0.0; ACTION_DIM];
+mod common;
+
+use common::{NEUTRAL, env_with, placed, play_out};
 
 /// The paper preset: 10 ms agent steps, ball free in 3-D, starting near (-0.5, -0.1).
 fn ten_ms() -> FoosballConfig {
     FoosballConfig::preset(Preset::Paper)
-}
-
-fn env_with(config: FoosballConfig) -> FoosballEnv {
-    let mut env = FoosballEnv::new(config).unwrap();
-    env.reset(Some(1));
-    env
-}
-
-/// A fresh episode with the ball placed at `xy` moving at `v` (cm/s).
-fn placed(config: FoosballConfig, xy: [f32; 2], v: [f32; 2]) -> FoosballEnv {
-    let mut env = env_with(config);
-    env.table_mut()
-        .unwrap()
-        .set_ball([xy[0], xy[1], BALL_RADIUS], [v[0], v[1], 0.0]);
-    env
-}
-
-/// Steps with neutral actions until the episode ends (at most `limit` steps).
-fn play_out(env: &mut FoosballEnv, limit: usize) -> Vec<Transition<FoosballInfo>> {
-    let mut out = Vec::new();
-    for _ in 0..limit {
-        let (_, t) = env.step(&NEUTRAL).unwrap();
-        let done = t.done();
-        out.push(t);
-        if done {
-            break;
-        }
-    }
-    out
 }
 
 #[test]

@@ -3,44 +3,25 @@
 //! end_on_goal still ends on a goal, presets load from TOML with overrides, and the
 //! scripted shooter scores where the ball starts in reach.
 
-use foosball_rl::env::geometry::BALL_RADIUS;
-use foosball_rl::env::layout::{ACTION_DIM, OBS_DIM};
+use foosball_rl::env::layout::OBS_DIM;
 use foosball_rl::env::scripted::Kicker;
-use foosball_rl::env::{
-    EndReason, Env, EnvRng, FoosballConfig, FoosballEnv, FoosballInfo, Opponent, Preset, Transition,
-};
+use foosball_rl::env::{EndReason, Env, EnvRng, FoosballConfig, FoosballEnv, Opponent, Preset};
 use rand::SeedableRng;
 
-const NEUTRAL: [f32; ACTION_DIM] = [0.0; ACTION_DIM];
+mod common;
+
+use common::{placed, play_out};
 
 /// A fresh episode of `preset` with the ball placed at `xy` moving at `v` (cm/s).
-fn placed(preset: Preset, xy: [f32; 2], v: [f32; 2]) -> FoosballEnv {
-    let mut env = FoosballEnv::new(FoosballConfig::preset(preset)).unwrap();
-    env.reset(Some(1));
-    env.table_mut()
-        .unwrap()
-        .set_ball([xy[0], xy[1], BALL_RADIUS], [v[0], v[1], 0.0]);
-    env
-}
-
-fn play_out(env: &mut FoosballEnv, limit: usize) -> Vec<Transition<FoosballInfo>> {
-    let mut out = Vec::new();
-    for _ in 0..limit {
-        let (_, t) = env.step(&NEUTRAL).unwrap();
-        let done = t.done();
-        out.push(t);
-        if done {
-            break;
-        }
-    }
-    out
+fn placed_in(preset: Preset, xy: [f32; 2], v: [f32; 2]) -> FoosballEnv {
+    placed(FoosballConfig::preset(preset), xy, v)
 }
 
 #[test]
 fn under_the_paper_rules_a_ball_in_the_goal_earns_beta_every_step() {
     for preset in [Preset::Paper, Preset::PaperReachable] {
         // At rest in the pocket, 1 cm past the goal line at x = 0.
-        let mut env = placed(preset, [0.0, 65.0], [0.0, 0.0]);
+        let mut env = placed_in(preset, [0.0, 65.0], [0.0, 0.0]);
         let ts = play_out(&mut env, 100);
         // It does not end there: the stagnation rule ends it after 10 steps.
         assert_eq!(ts.len(), 10, "{preset:?}");
@@ -60,10 +41,10 @@ fn under_the_paper_rules_a_ball_in_the_goal_earns_beta_every_step() {
 
 #[test]
 fn under_the_reference_rules_the_goal_pays_beta_alone_and_the_own_goal_costs_beta() {
-    let mut env = placed(Preset::Reference, [0.0, 65.5], [0.0, 0.0]);
+    let mut env = placed_in(Preset::Reference, [0.0, 65.5], [0.0, 0.0]);
     let ts = play_out(&mut env, 100);
     assert!(ts.iter().all(|t| t.reward == 1000.0), "{:?}", ts[0]);
-    let mut env = placed(Preset::Reference, [0.0, -65.5], [0.0, 0.0]);
+    let mut env = placed_in(Preset::Reference, [0.0, -65.5], [0.0, 0.0]);
     let t = play_out(&mut env, 1).remove(0);
     assert!(t.info.in_own_goal && t.info.conceded());
     let expected = 300.0 - t.info.goal_distance - 1000.0;
@@ -73,9 +54,9 @@ fn under_the_reference_rules_the_goal_pays_beta_alone_and_the_own_goal_costs_bet
         t.reward
     );
     // y = 64.5 is in the goal for the paper (>= 64) but not for the reference (>= 65).
-    let mut env = placed(Preset::Reference, [0.0, 64.5], [0.0, 0.0]);
+    let mut env = placed_in(Preset::Reference, [0.0, 64.5], [0.0, 0.0]);
     assert!(!play_out(&mut env, 1)[0].info.in_goal);
-    let mut env = placed(Preset::Paper, [0.0, 64.5], [0.0, 0.0]);
+    let mut env = placed_in(Preset::Paper, [0.0, 64.5], [0.0, 0.0]);
     assert!(play_out(&mut env, 1)[0].info.in_goal);
 }
 
@@ -86,13 +67,13 @@ fn the_reference_counters_end_episodes_after_20_ms_and_30_ms() {
     assert_eq!(agent_dt, 0.002);
     assert_eq!(config.max_episode_steps as f32 * agent_dt, 40.0);
     // A resting ball: 10 steps of 2 ms.
-    let mut env = placed(Preset::Reference, [-30.0, 0.0], [0.0, 0.0]);
+    let mut env = placed_in(Preset::Reference, [-30.0, 0.0], [0.0, 0.0]);
     let ts = play_out(&mut env, 100);
     assert_eq!(ts.len(), 10);
     assert_eq!(ts.last().unwrap().info.end, Some(EndReason::Stagnant));
     // A ball rolling towards yellow's goal (placed behind its start, so that no step
     // gains y): 15 steps of 2 ms.
-    let mut env = placed(Preset::Reference, [-30.0, -10.0], [0.0, -40.0]);
+    let mut env = placed_in(Preset::Reference, [-30.0, -10.0], [0.0, -40.0]);
     let ts = play_out(&mut env, 100);
     assert_eq!(ts.len(), 15);
     assert_eq!(ts.last().unwrap().info.end, Some(EndReason::NoProgress));
@@ -103,7 +84,7 @@ fn the_reference_counters_end_episodes_after_20_ms_and_30_ms() {
 
 #[test]
 fn end_on_goal_ends_the_episode_with_one_bonus() {
-    let mut env = placed(Preset::EndOnGoal, [5.0, 42.0], [0.0, 300.0]);
+    let mut env = placed_in(Preset::EndOnGoal, [5.0, 42.0], [0.0, 300.0]);
     let ts = play_out(&mut env, 100);
     let last = ts.last().unwrap();
     assert_eq!(last.info.end, Some(EndReason::Scored));
@@ -111,7 +92,7 @@ fn end_on_goal_ends_the_episode_with_one_bonus() {
     assert!(last.reward > 1000.0 + 300.0 - 8.0, "reward {}", last.reward);
     assert!(ts[..ts.len() - 1].iter().all(|t| t.reward < 300.0));
     // The same shot under the paper's rules goes on after the goal.
-    let mut env = placed(Preset::Paper, [5.0, 42.0], [0.0, 300.0]);
+    let mut env = placed_in(Preset::Paper, [5.0, 42.0], [0.0, 300.0]);
     let ts = play_out(&mut env, 200);
     let first_in = ts.iter().position(|t| t.info.in_goal).expect("scores");
     assert!(ts.len() > first_in + 1 && !ts[first_in].done());

@@ -4,7 +4,7 @@
 
 use clap::Parser;
 use foosball_rl::cli::finish;
-use foosball_rl::config::{Algo, RunConfig};
+use foosball_rl::config::{Algo, Overrides, RunConfig};
 use foosball_rl::env::{FoosballConfig, Preset};
 use foosball_rl::policy::ScriptedPolicy;
 use foosball_rl::report::write_report;
@@ -70,41 +70,30 @@ struct Args {
 
 fn spec(args: &Args) -> Result<SweepSpec, String> {
     let seeds = parse_seeds(&args.seeds).map_err(|e| e.to_string())?;
-    let preset_env = args.preset.map(FoosballConfig::preset);
     let mut runs = Vec::new();
     for &algo in &args.algos {
         let path = args.configs.join(format!("{algo}.toml"));
-        let mut c = RunConfig::load(&path).map_err(|e| e.to_string())?;
-        if c.algo != algo {
-            return Err(format!(
-                "{}: algo = \"{}\", expected \"{algo}\"",
-                path.display(),
-                c.algo
-            ));
-        }
-        let p = &mut c.protocol;
-        p.epochs = args.epochs.unwrap_or(p.epochs);
-        p.steps_per_epoch = args.steps_per_epoch.unwrap_or(p.steps_per_epoch);
-        p.threads = args.threads_per_run;
-        p.seed = 0;
-        if let Some(hidden) = &args.hidden {
-            c.set_hidden(hidden.clone());
-        }
-        if let Some(env) = &preset_env {
-            c.env = FoosballConfig {
-                opponent: c.env.opponent,
-                ..env.clone()
-            };
-        }
-        c.validate().map_err(|e| {
-            format!(
-                "{} (after command-line overrides): {}: {}",
-                path.display(),
-                e.key,
-                e.message
-            )
-        })?;
-        runs.push(c);
+        let env = match args.preset {
+            // The preset's table with the configuration's opponent.
+            Some(preset) => Some(FoosballConfig {
+                opponent: RunConfig::load(&path)
+                    .map_err(|e| e.to_string())?
+                    .env
+                    .opponent,
+                ..FoosballConfig::preset(preset)
+            }),
+            None => None,
+        };
+        let overrides = Overrides {
+            seed: Some(0),
+            epochs: args.epochs,
+            steps_per_epoch: args.steps_per_epoch,
+            envs: None,
+            threads: Some(args.threads_per_run),
+            hidden: args.hidden.clone(),
+            env,
+        };
+        runs.push(RunConfig::load_with(&path, Some(algo), &overrides)?);
     }
     if runs.is_empty() {
         return Err("--algos: give at least one algorithm".into());

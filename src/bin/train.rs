@@ -4,7 +4,7 @@
 
 use clap::Parser;
 use foosball_rl::cli::finish;
-use foosball_rl::config::{Algo, RunConfig};
+use foosball_rl::config::{Algo, Overrides, RunConfig};
 use foosball_rl::train::{Event, Progress, Start, train};
 use indicatif::{FormattedDuration, ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -63,34 +63,16 @@ fn config(args: &Args) -> Result<RunConfig, String> {
         (None, Some(algo)) => PathBuf::from(format!("configs/{algo}.toml")),
         (None, None) => return Err("give --algo ppo|sac|td3 or --config FILE".into()),
     };
-    let mut c = RunConfig::load(&path).map_err(|e| e.to_string())?;
-    if let Some(algo) = args.algo
-        && algo != c.algo
-    {
-        return Err(format!(
-            "--algo {algo} but {} has algo = \"{}\"",
-            path.display(),
-            c.algo
-        ));
-    }
-    let p = &mut c.protocol;
-    p.seed = args.seed.unwrap_or(p.seed);
-    p.epochs = args.epochs.unwrap_or(p.epochs);
-    p.steps_per_epoch = args.steps_per_epoch.unwrap_or(p.steps_per_epoch);
-    p.envs = args.envs.unwrap_or(p.envs);
-    p.threads = args.threads.unwrap_or(p.threads);
-    if let Some(hidden) = &args.hidden {
-        c.set_hidden(hidden.clone());
-    }
-    c.validate().map_err(|e| {
-        format!(
-            "{} (after command-line overrides): {}: {}",
-            path.display(),
-            e.key,
-            e.message
-        )
-    })?;
-    Ok(c)
+    let overrides = Overrides {
+        seed: args.seed,
+        epochs: args.epochs,
+        steps_per_epoch: args.steps_per_epoch,
+        envs: args.envs,
+        threads: args.threads,
+        hidden: args.hidden.clone(),
+        env: None,
+    };
+    RunConfig::load_with(&path, args.algo, &overrides)
 }
 
 fn run_dir(args: &Args, c: &RunConfig) -> Result<PathBuf, String> {

@@ -134,9 +134,15 @@ fn bar_panel(
     Ok(())
 }
 
+/// A point of a band: `(env step, mean, low, high)`.
+type BandPoint = (f64, f64, f64, f64);
+
+/// A labelled curve with its band.
+type Band = (String, Vec<BandPoint>);
+
 /// The mean over a group's seeds of an evaluation value at each env step that every seed
-/// evaluated, with its 95 % bootstrap band: `(step, mean, low, high)`.
-fn band(group: &Group, value: fn(&EvalPoint) -> f64) -> Vec<(f64, f64, f64, f64)> {
+/// evaluated, with its 95 % bootstrap band.
+fn band(group: &Group, value: fn(&EvalPoint) -> f64) -> Vec<BandPoint> {
     let first = &group.runs[0].evaluations;
     first
         .iter()
@@ -171,7 +177,7 @@ pub fn learning_curves(groups: &[Group], path: &Path) -> Result<(), ReportError>
     let learners: Vec<&Group> = groups.iter().filter(|g| !g.runs[0].is_baseline()).collect();
     png(path, (1200, 450), |root| {
         for (panel, (title, value, range)) in root.split_evenly((1, 2)).iter().zip(series) {
-            let bands: Vec<(String, Vec<(f64, f64, f64, f64)>)> = learners
+            let bands: Vec<Band> = learners
                 .iter()
                 .map(|g| {
                     (
@@ -189,7 +195,7 @@ pub fn learning_curves(groups: &[Group], path: &Path) -> Result<(), ReportError>
 fn curve_panel(
     area: &Drawing<'_>,
     title: &str,
-    bands: &[(String, Vec<(f64, f64, f64, f64)>)],
+    bands: &[Band],
     range: Option<(f64, f64)>,
 ) -> Result<(), DrawError> {
     let points = bands.iter().flat_map(|(_, b)| b.iter());

@@ -72,7 +72,8 @@ pub struct RunResults {
     pub name: String,
     /// What played: `ppo`, `sac`, `td3`, or a scripted policy's name.
     pub player: String,
-    /// The table's rule preset.
+    /// The table's rule preset, marked `*` where the configuration changes any of its
+    /// values.
     pub preset: String,
     /// Hidden widths of the networks (empty for a scripted policy).
     pub hidden: Vec<usize>,
@@ -119,6 +120,16 @@ fn read_evaluations(path: &Path) -> Result<Vec<EvalPoint>, ReportError> {
         .collect()
 }
 
+/// The preset's name, with `*` where `env` differs from the preset's values.
+fn preset_label(env: &FoosballConfig) -> String {
+    let name = env.preset.name();
+    if *env == FoosballConfig::preset(env.preset) {
+        name.to_string()
+    } else {
+        format!("{name}*")
+    }
+}
+
 fn dir_name(dir: &Path) -> String {
     dir.canonicalize()
         .ok()
@@ -133,7 +144,7 @@ impl RunResults {
         Ok(Self {
             name: dir_name(dir),
             player: config.algo.to_string(),
-            preset: config.env.preset.name().to_string(),
+            preset: preset_label(&config.env),
             hidden: config.hidden().to_vec(),
             metrics: read_metrics(&dir.join("test/metrics.json"))?,
             evaluations: read_evaluations(&dir.join("evaluations.csv"))?,
@@ -148,7 +159,7 @@ impl RunResults {
         Ok(Self {
             name: dir_name(dir),
             player: b.policy.name().to_string(),
-            preset: b.env.preset.name().to_string(),
+            preset: preset_label(&b.env),
             hidden: Vec::new(),
             metrics: read_metrics(&dir.join("metrics.json"))?,
             evaluations: Vec::new(),

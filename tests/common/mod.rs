@@ -1,6 +1,9 @@
 //! Helpers shared by the integration tests (each test crate uses some of them).
 #![allow(dead_code)]
 
+use foosball_rl::env::geometry::BALL_RADIUS;
+use foosball_rl::env::layout::ACTION_DIM;
+use foosball_rl::env::{Env, FoosballConfig, FoosballEnv, FoosballInfo, Transition};
 use std::path::PathBuf;
 
 /// The reference data folder `../shared/reference/<name>` beside the checkout, or `None`
@@ -42,4 +45,37 @@ pub fn scratch(name: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
+}
+
+/// Neutral commands: every rod held at its centre, feet down.
+pub const NEUTRAL: [f32; ACTION_DIM] = [0.0; ACTION_DIM];
+
+/// An environment of `config` after `reset(Some(1))`.
+pub fn env_with(config: FoosballConfig) -> FoosballEnv {
+    let mut env = FoosballEnv::new(config).unwrap();
+    env.reset(Some(1));
+    env
+}
+
+/// A fresh episode with the ball placed at `xy` moving at `v` (cm/s).
+pub fn placed(config: FoosballConfig, xy: [f32; 2], v: [f32; 2]) -> FoosballEnv {
+    let mut env = env_with(config);
+    env.table_mut()
+        .unwrap()
+        .set_ball([xy[0], xy[1], BALL_RADIUS], [v[0], v[1], 0.0]);
+    env
+}
+
+/// Steps with neutral actions until the episode ends (at most `limit` steps).
+pub fn play_out(env: &mut FoosballEnv, limit: usize) -> Vec<Transition<FoosballInfo>> {
+    let mut out = Vec::new();
+    for _ in 0..limit {
+        let (_, t) = env.step(&NEUTRAL).unwrap();
+        let done = t.done();
+        out.push(t);
+        if done {
+            break;
+        }
+    }
+    out
 }
