@@ -47,7 +47,8 @@ fn report_tables_and_charts_several_runs() {
         .find(|l| l.starts_with("| mean over seeds"))
         .unwrap();
     assert!(
-        header.contains("ppo reference 16 (1 run)") && header.contains("sac reference 16 (1 run)"),
+        header.contains("ppo reference* 16 (1 run)")
+            && header.contains("sac reference* 16 (1 run)"),
         "{header}"
     );
     for (k, run) in runs.iter().enumerate() {
@@ -69,7 +70,7 @@ fn report_tables_and_charts_several_runs() {
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
     assert_eq!(json["groups"].as_array().unwrap().len(), 2);
     assert!(
-        md.contains("| reference | SAC's score rate is 42.9 % | 0.429 |"),
+        md.contains("| reference* | SAC's score rate is 42.9 % | 0.429 |"),
         "{md}"
     );
     assert_eq!(png_size(&out.join("metrics.png")), (1500, 360));
@@ -108,7 +109,7 @@ fn report_over_seeds_averages_each_metric_and_lists_every_seed() {
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
-    assert!(md.contains("ppo reference 16 (2 runs)"), "{md}");
+    assert!(md.contains("ppo reference* 16 (2 runs)"), "{md}");
     let rows: Vec<&str> = md
         .lines()
         .filter(|l| l.starts_with("| mean episode reward"))
