@@ -239,9 +239,10 @@ impl RunConfig {
         Ok(config)
     }
 
-    /// The effective configuration as TOML (what a run saves as `config.toml`).
+    /// The effective configuration as TOML (what a run saves as `config.toml`), arrays on
+    /// one line.
     pub fn to_toml(&self) -> String {
-        toml::to_string_pretty(self).expect("a run config always serialises")
+        toml::to_string(self).expect("a run config always serialises")
     }
 
     fn fill_algo_section(&mut self) {

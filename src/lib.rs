@@ -3,6 +3,7 @@
 //! - [`env`]: the table (rapier3d), Pendulum, vectorised environments, seeding;
 //! - [`nets`]: Burn networks, distributions, Adam;
 //! - [`algos`]: PPO, SAC, TD3, buffers and the agent/rollout shape;
+//! - [`budget`]: memory a run will need, checked before allocating;
 //! - [`cli`]: what the command-line tools share;
 //! - [`config`]: the run configuration (`configs/*.toml`);
 //! - [`evaluation`]: deterministic episodes on held-out seeds, played side by side;
@@ -16,6 +17,7 @@
 //! - [`sweep`]: algorithms x seeds into one directory, resumable;
 //! - [`train`]: the training loop shared by the three algorithms.
 
+pub mod budget;
 pub mod checkpoint;
 pub mod cli;
 pub mod config;

@@ -15,6 +15,7 @@ use foosball_env::{
 };
 use foosball_nets::{Backend, BackendError, Device};
 use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
 /// Deterministic episodes played side by side in evaluations and tests (part of the
 /// protocol: it fixes the policy's batch shape).
@@ -22,6 +23,9 @@ pub const EVAL_BATCH: usize = 10;
 
 /// Env steps between rows of training scalars (metrics averaged over them).
 pub const LOG_EVERY: u64 = 1_000;
+
+/// Wall time between [`Event::Tick`]s.
+pub const TICK: Duration = Duration::from_secs(2);
 
 /// Why a run stopped.
 #[derive(Debug, thiserror::Error)]
@@ -66,6 +70,10 @@ impl From<EnvError> for TrainError {
 pub enum Event {
     /// A logging window ended ([`LOG_EVERY`] env steps or an epoch end).
     Window(Speed),
+    /// At most every [`TICK`] of wall time: the speed since this process started training,
+    /// for progress displays only (nothing is logged), so that an estimate shows before the
+    /// first window ends even where one update takes seconds.
+    Tick(Speed),
     /// An evaluation ended; its mean return and score rate.
     Evaluation {
         /// Mean return of the evaluation episodes.
@@ -183,6 +191,14 @@ pub fn restart_seeds(seed: u64, epoch: u64, n: usize) -> Vec<u64> {
 
 /// Removes what an earlier run left in `run_dir` (a fresh start with `--force`).
 fn clear_run_dir(run_dir: &Path) -> Result<(), TrainError> {
+    // `evaluate`'s outputs of the replaced run.
+    if let Ok(entries) = std::fs::read_dir(run_dir) {
+        for entry in entries.flatten() {
+            if entry.file_name().to_string_lossy().starts_with("evaluate-") {
+                checkpoint::remove_dir(&entry.path())?;
+            }
+        }
+    }
     for dir in [
         "checkpoint",
         "checkpoint.old",
@@ -263,6 +279,8 @@ pub fn train(
             total_steps: total,
             event,
         };
+        let started = (Instant::now(), agent.env_steps(), agent.gradient_steps());
+        let mut last_tick = started.0;
         for epoch in done + 1..=u64::from(p.epochs) {
             let end = epoch * p.steps_per_epoch;
             while agent.env_steps() < end {
@@ -279,6 +297,15 @@ pub fn train(
                     log.update(m);
                 }
                 let steps = agent.env_steps();
+                if last_tick.elapsed() >= TICK {
+                    last_tick = Instant::now();
+                    let seconds = started.0.elapsed().as_secs_f64();
+                    let speed = Speed {
+                        steps_per_second: (steps - started.1) as f64 / seconds,
+                        updates_per_second: (agent.gradient_steps() - started.2) as f64 / seconds,
+                    };
+                    report(&progress(steps, Event::Tick(speed)));
+                }
                 if steps >= next_log {
                     next_log += LOG_EVERY;
                     if let Some(speed) = log.end_window(steps, agent.gradient_steps())? {

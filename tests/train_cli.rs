@@ -169,6 +169,21 @@ fn bad_input_is_refused_with_the_culprit_named() {
     assert!(refused(&["--config", c, "--hidden", "16,0"]).contains("sac.net.hidden"));
     assert!(refused(&["--config", c, "--epochs", "0"]).contains("protocol.epochs"));
     assert!(refused(&["--config", c, "--algo", "td3"]).contains("algo = \"sac\""));
+    // A size no machine holds is refused before anything is allocated or written.
+    let huge = dir.join("huge");
+    let e = refused(&[
+        "--config",
+        c,
+        "--hidden",
+        "100000000,100000000",
+        "--out",
+        huge.to_str().unwrap(),
+    ]);
+    assert!(
+        e.contains("sac.net.hidden = [100000000, 100000000]") && e.contains("GiB"),
+        "{e}"
+    );
+    assert!(!huge.exists());
     let out = dir.join("taken");
     std::fs::create_dir_all(&out).unwrap();
     std::fs::write(out.join("config.toml"), "algo = \"sac\"\n").unwrap();
@@ -212,5 +227,10 @@ fn evaluate_reproduces_the_test_of_the_saved_networks() {
     let o = evaluate(&["--run", dir.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("not a run directory"));
+
+    // `--force` replaces the run and `evaluate`'s outputs of the old one.
+    let o = train(&["--config", config.to_str().unwrap(), "--out", r, "--force"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(!run_dir.join("evaluate-last").exists() && !run_dir.join("evaluate-best").exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -3,6 +3,7 @@
 //! `train --resume RUN` goes on from a run's last checkpoint.
 
 use clap::Parser;
+use foosball_rl::budget;
 use foosball_rl::cli::finish;
 use foosball_rl::config::{Algo, Overrides, RunConfig};
 use foosball_rl::train::{Event, Progress, Start, train};
@@ -123,7 +124,7 @@ impl Display {
     fn show(&mut self, p: &Progress) {
         self.bar.set_position(p.env_steps);
         match p.event {
-            Event::Window(s) => {
+            Event::Window(s) | Event::Tick(s) => {
                 let left = p.total_steps.saturating_sub(p.env_steps) as f64;
                 let eta = Duration::from_secs_f64(left / s.steps_per_second.max(1e-9));
                 self.speed = format!(
@@ -166,9 +167,12 @@ fn resumed(dir: &Path, threads: Option<usize>) -> Result<RunConfig, String> {
 
 fn main() -> ExitCode {
     let args = Args::parse();
+    let fits = |c: RunConfig| budget::check(&c, budget::available_bytes()).map(|()| c);
     let setup = match &args.resume {
-        Some(dir) => resumed(dir, args.threads).map(|c| (c, dir.clone(), Start::Resume)),
-        None => config(&args).and_then(|c| {
+        Some(dir) => resumed(dir, args.threads)
+            .and_then(fits)
+            .map(|c| (c, dir.clone(), Start::Resume)),
+        None => config(&args).and_then(fits).and_then(|c| {
             let dir = run_dir(&args, &c)?;
             Ok((c, dir, Start::Fresh))
         }),
