@@ -62,40 +62,51 @@ fn assert_same_run(a: &Path, b: &Path, label: &str) {
     );
 }
 
-#[test]
-fn a_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_one() {
-    let dir = scratch("resume");
-    for algo in ["ppo", "sac", "td3"] {
-        let c = config(algo, 3, 150);
-        let straight = dir.join(format!("{algo}-straight"));
-        let broken = dir.join(format!("{algo}-broken"));
-        for run in [&straight, &broken] {
-            std::fs::create_dir_all(run).unwrap();
-        }
-        train(&c, &straight, Start::Fresh, |_| {}).unwrap();
-
-        // Stop the second run at its evaluation at env step 200, in epoch 2 of 3 (after
-        // the epoch-1 checkpoint, with epoch-2 logs and best networks already written).
-        let stopped = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            train(&c, &broken, Start::Fresh, |p| {
-                if matches!(p.event, Event::Evaluation { .. }) && p.env_steps == 200 {
-                    panic!("stopped at env step 200");
-                }
-            })
-        }));
-        assert!(stopped.is_err(), "{algo}: the run was not stopped");
-        assert!(!broken.join("test").exists());
-        let evals = std::fs::read_to_string(broken.join("evaluations.csv")).unwrap();
-        assert_eq!(
-            evals.lines().count(),
-            1 + 2,
-            "{algo}: logged past the checkpoint"
-        );
-
-        train(&c, &broken, Start::Resume, |_| {}).unwrap();
-        assert_same_run(&straight, &broken, algo);
+/// Trains `algo` straight through, and again stopped at its evaluation at env step 200
+/// (in epoch 2 of 3, after the epoch-1 checkpoint, with epoch-2 logs and best networks
+/// already written) and resumed; the two must end the same.
+fn stopped_mid_epoch_and_resumed(algo: &str) {
+    let dir = scratch(&format!("resume-{algo}"));
+    let c = config(algo, 3, 150);
+    let straight = dir.join("straight");
+    let broken = dir.join("broken");
+    for run in [&straight, &broken] {
+        std::fs::create_dir_all(run).unwrap();
     }
+    train(&c, &straight, Start::Fresh, |_| {}).unwrap();
+    let stopped = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        train(&c, &broken, Start::Fresh, |p| {
+            if matches!(p.event, Event::Evaluation { .. }) && p.env_steps == 200 {
+                panic!("stopped at env step 200");
+            }
+        })
+    }));
+    assert!(stopped.is_err(), "{algo}: the run was not stopped");
+    assert!(!broken.join("test").exists());
+    let evals = std::fs::read_to_string(broken.join("evaluations.csv")).unwrap();
+    assert_eq!(
+        evals.lines().count(),
+        1 + 2,
+        "{algo}: logged past the checkpoint"
+    );
+    train(&c, &broken, Start::Resume, |_| {}).unwrap();
+    assert_same_run(&straight, &broken, algo);
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_ppo_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_one() {
+    stopped_mid_epoch_and_resumed("ppo");
+}
+
+#[test]
+fn a_sac_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_one() {
+    stopped_mid_epoch_and_resumed("sac");
+}
+
+#[test]
+fn a_td3_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_one() {
+    stopped_mid_epoch_and_resumed("td3");
 }
 
 #[test]
