@@ -1,8 +1,128 @@
-//! What a run configuration will hold in memory, estimated before anything is allocated,
-//! so that an impossible size is refused with a message instead of an allocator abort.
+//! What a run will cost, told before it starts: the memory it will hold, estimated from
+//! its sizes before anything is allocated (an impossible size is refused with a message
+//! instead of an allocator abort), and its wall time, from a few env steps and gradient
+//! steps timed on a throwaway copy of the learner (a few seconds at most).
 
 use crate::config::{Algo, RunConfig};
+use crate::train::{TrainError, build_agent, device};
+use foosball_algos::{ActMode, Experience};
 use foosball_env::layout::{ACTION_DIM, OBS_DIM};
+use foosball_env::{Env, FoosballEnv};
+use std::time::{Duration, Instant};
+
+/// Wall time a run is estimated to need, from timings on this machine.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TimeBudget {
+    /// Seconds per env step of the table with the run's settings (one env, one thread).
+    pub env_step_s: f64,
+    /// Seconds per gradient step of the run's networks (one minibatch).
+    pub gradient_step_s: f64,
+    /// Gradient steps the algorithm takes per env step.
+    pub gradient_steps_per_env_step: f64,
+    /// Estimated seconds for all the run's env steps and gradient steps (evaluations and
+    /// the test not included).
+    pub total_s: f64,
+}
+
+/// Times the env and the learner of `config`: env steps for about 0.3 s, then gradient
+/// steps on a throwaway learner built like the run's (seeded the same, so nothing of the
+/// run's own random streams is used) fed with random transitions, for at most two
+/// gradient steps or about 3 s.
+pub fn time_budget(config: &RunConfig) -> Result<TimeBudget, TrainError> {
+    let mut env =
+        FoosballEnv::new(config.env.clone()).map_err(|e| TrainError::Env(e.to_string()))?;
+    let mut obs = env.reset(Some(0));
+    let action = [0.5_f32; ACTION_DIM];
+    let (mut env_steps, started) = (0u32, Instant::now());
+    while started.elapsed() < Duration::from_millis(300) {
+        let (next, t) = env.step(&action)?;
+        obs = if t.done() { env.reset(None) } else { next };
+        env_steps += 1;
+    }
+    let env_step_s = started.elapsed().as_secs_f64() / f64::from(env_steps);
+
+    // One gradient step per update: PPO with a rollout of one minibatch and one epoch,
+    // SAC/TD3 training from their first minibatch on, with a small replay buffer.
+    let mut probe = config.clone();
+    probe.protocol.envs = 1;
+    let per_env_step = match config.algo {
+        Algo::Ppo => {
+            let c = probe.ppo.as_mut().expect("filled");
+            let rollout = (c.n_steps * config.protocol.envs) as f64;
+            let per = c.n_epochs as f64 * (rollout / c.batch_size as f64).ceil() / rollout;
+            (c.n_steps, c.n_epochs) = (c.batch_size, 1);
+            per
+        }
+        Algo::Sac | Algo::Td3 => {
+            let c = match config.algo {
+                Algo::Sac => &mut probe.sac.as_mut().expect("filled").off_policy,
+                _ => &mut probe.td3.as_mut().expect("filled").off_policy,
+            };
+            let per = c.gradient_steps as f64 / (c.train_freq * config.protocol.envs as u64) as f64;
+            c.learning_starts = c.batch_size as u64;
+            c.buffer_size = 2 * c.batch_size;
+            (c.train_freq, c.gradient_steps) = (1, 1);
+            per
+        }
+    };
+    let device = device(config)?;
+    let mut agent = build_agent(&probe, &device);
+    let (mut timed, mut spent, started) = (0u32, Duration::ZERO, Instant::now());
+    let (zero, no) = ([0.0_f32], [false]);
+    while timed < 2 && (timed == 0 || started.elapsed() < Duration::from_secs(3)) {
+        let actions = agent.act(&obs, ActMode::Explore);
+        agent.observe(&Experience {
+            obs: &obs,
+            actions: &actions,
+            rewards: &zero,
+            next_obs: &obs,
+            final_obs: vec![None],
+            terminated: &no,
+            truncated: &no,
+        });
+        let before = (Instant::now(), agent.gradient_steps());
+        agent.update(1.0);
+        if agent.gradient_steps() > before.1 {
+            spent += before.0.elapsed();
+            timed += u32::try_from(agent.gradient_steps() - before.1).unwrap_or(1);
+        }
+    }
+    let gradient_step_s = spent.as_secs_f64() / f64::from(timed);
+    let steps = u64::from(config.protocol.epochs) * config.protocol.steps_per_epoch;
+    Ok(TimeBudget {
+        env_step_s,
+        gradient_step_s,
+        gradient_steps_per_env_step: per_env_step,
+        total_s: steps as f64 * (env_step_s + per_env_step * gradient_step_s),
+    })
+}
+
+/// The budget as one line, with a warning line where the run needs more than a day.
+pub fn describe(config: &RunConfig, time: &TimeBudget, available: Option<f64>) -> String {
+    let gib = |b: f64| b / (1u64 << 30) as f64;
+    let have = available.map_or(String::new(), |a| {
+        format!(" of {:.1} GiB available", gib(a))
+    });
+    let mut out = format!(
+        "# budget: memory about {:.2} GiB{have}; {:.3} ms per env step + {:.2} gradient \
+         steps of {:.3} ms each: about {} for the run's {} env steps on this machine",
+        gib(learner_bytes(config)),
+        1e3 * time.env_step_s,
+        time.gradient_steps_per_env_step,
+        1e3 * time.gradient_step_s,
+        indicatif::HumanDuration(Duration::from_secs_f64(time.total_s.min(1e12))),
+        u64::from(config.protocol.epochs) * config.protocol.steps_per_epoch,
+    );
+    if time.total_s > 86_400.0 {
+        out += &format!(
+            "\n# that is more than a day: try --hidden 64,64 (the CPU path) or a GPU backend \
+             (`backend = \"cuda\"` or \"wgpu\" under [protocol], see README); {}.net.hidden is {:?}",
+            config.algo,
+            config.hidden()
+        );
+    }
+    out
+}
 
 /// Parameters of an MLP `input -> hidden... -> output` (weights and biases).
 fn mlp_params(input: usize, hidden: &[usize], output: usize) -> f64 {

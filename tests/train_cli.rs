@@ -234,3 +234,27 @@ fn evaluate_reproduces_the_test_of_the_saved_networks() {
     assert!(!run_dir.join("evaluate-last").exists() && !run_dir.join("evaluate-best").exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn train_prints_its_budget_before_training() {
+    let dir = scratch("budget");
+    let config = tiny_config(&dir, "td3");
+    let out = dir.join("run");
+    let o = train(&[
+        "--config",
+        config.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("# budget: memory about"))
+        .unwrap_or_else(|| panic!("no budget line in\n{text}"));
+    // TD3 trains once per vec-env step of 2 envs: half a gradient step per env step.
+    assert!(line.contains("+ 0.50 gradient steps of"), "{line}");
+    assert!(line.contains("for the run's 300 env steps"), "{line}");
+    assert!(!text.contains("more than a day"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -178,11 +178,13 @@ fn main() -> ExitCode {
         }),
     };
     let result = setup.and_then(|(c, dir, start)| {
+        let time = budget::time_budget(&c).map_err(|e| e.to_string())?;
         println!(
             "# effective configuration ({})\n{}",
             dir.join("config.toml").display(),
             c.to_toml()
         );
+        println!("{}", budget::describe(&c, &time, budget::available_bytes()));
         let total = u64::from(c.protocol.epochs) * c.protocol.steps_per_epoch;
         let mut display = Display::new(total);
         let metrics = train(&c, &dir, start, |p| display.show(p)).map_err(|e| e.to_string())?;
