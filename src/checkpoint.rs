@@ -71,20 +71,13 @@ pub enum CheckpointError {
     },
 }
 
-fn io(path: &Path) -> impl Fn(std::io::Error) -> RunFileError + '_ {
-    move |source| RunFileError {
-        path: path.to_path_buf(),
-        source,
-    }
-}
-
 /// Writes `agent` and `state` as `run_dir`'s checkpoint, replacing the previous one.
 pub fn write(run_dir: &Path, agent: &dyn Agent, state: &LoopState) -> Result<(), CheckpointError> {
     let tmp = run_dir.join("checkpoint.tmp");
     let dst = run_dir.join("checkpoint");
     let old = run_dir.join("checkpoint.old");
     remove_dir(&tmp)?;
-    std::fs::create_dir_all(&tmp).map_err(io(&tmp))?;
+    std::fs::create_dir_all(&tmp).map_err(RunFileError::at(&tmp))?;
     agent.save(&tmp)?;
     let mut snap = Snapshot::new();
     agent.save_state(&mut snap);
@@ -96,9 +89,9 @@ pub fn write(run_dir: &Path, agent: &dyn Agent, state: &LoopState) -> Result<(),
         })?;
     if dst.exists() {
         remove_dir(&old)?;
-        std::fs::rename(&dst, &old).map_err(io(&dst))?;
+        std::fs::rename(&dst, &old).map_err(RunFileError::at(&dst))?;
     }
-    std::fs::rename(&tmp, &dst).map_err(io(&tmp))?;
+    std::fs::rename(&tmp, &dst).map_err(RunFileError::at(&tmp))?;
     remove_dir(&old)?;
     Ok(())
 }
@@ -127,7 +120,7 @@ pub fn load(dir: &Path, agent: &mut dyn Agent) -> Result<LoopState, CheckpointEr
 /// Removes `dir` and what it holds, if it exists.
 pub fn remove_dir(dir: &Path) -> Result<(), RunFileError> {
     match std::fs::remove_dir_all(dir) {
-        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(io(dir)(e)),
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(RunFileError::at(dir)(e)),
         _ => Ok(()),
     }
 }

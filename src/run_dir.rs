@@ -29,23 +29,23 @@ pub struct RunFileError {
     pub source: std::io::Error,
 }
 
-/// Writes `bytes` to `path` through `path.tmp` and a rename, so a crash leaves either the
-/// old file or the new one.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), RunFileError> {
-    let err = |source| RunFileError {
-        path: path.to_path_buf(),
-        source,
-    };
-    if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir).map_err(err)?;
+impl RunFileError {
+    /// The error constructor for `path`, for `map_err`.
+    pub fn at(path: &Path) -> impl Fn(std::io::Error) -> Self + Copy + '_ {
+        move |source| Self {
+            path: path.to_path_buf(),
+            source,
+        }
     }
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(".tmp");
-    let tmp = PathBuf::from(tmp);
-    let mut file = std::fs::File::create(&tmp).map_err(err)?;
-    file.write_all(bytes).map_err(err)?;
-    file.sync_all().map_err(err)?;
-    std::fs::rename(&tmp, path).map_err(err)
+}
+
+/// Writes `bytes` to `path` atomically (creating its directory), so a crash leaves either
+/// the old file or the new one ([`foosball_nets::atomic_file`]).
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), RunFileError> {
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(RunFileError::at(path))?;
+    }
+    foosball_nets::atomic_file::write_atomic(path, bytes).map_err(RunFileError::at(path))
 }
 
 /// Appends lines to a CSV file, writing the header first when the file is new or empty;
@@ -54,10 +54,7 @@ pub fn append_csv(path: &Path, header: &str, lines: &[String]) -> Result<(), Run
     if lines.is_empty() {
         return Ok(());
     }
-    let err = |source| RunFileError {
-        path: path.to_path_buf(),
-        source,
-    };
+    let err = RunFileError::at(path);
     let new = std::fs::metadata(path).map_or(true, |m| m.len() == 0);
     let mut file = std::fs::OpenOptions::new()
         .create(true)

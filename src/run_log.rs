@@ -93,10 +93,7 @@ impl RunLog {
             cut_file(&run_dir.join(name), len)?;
         }
         let tb_dir = run_dir.join("tensorboard");
-        std::fs::create_dir_all(&tb_dir).map_err(|source| RunFileError {
-            path: tb_dir.clone(),
-            source,
-        })?;
+        std::fs::create_dir_all(&tb_dir).map_err(RunFileError::at(&tb_dir))?;
         let mut tensorboard = FileWriter::new(&tb_dir);
         if let Some(step) = resumed_at {
             let mut log = SessionLog::new();
@@ -253,10 +250,7 @@ impl RunLog {
 
 /// Cuts `path` back to `len` bytes (a missing file stands for an empty one).
 fn cut_file(path: &Path, len: u64) -> Result<(), RunFileError> {
-    let err = |source| RunFileError {
-        path: path.to_path_buf(),
-        source,
-    };
+    let err = RunFileError::at(path);
     let file = match std::fs::OpenOptions::new().write(true).open(path) {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound && len == 0 => return Ok(()),
         other => other.map_err(err)?,

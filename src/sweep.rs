@@ -168,10 +168,7 @@ pub fn train_run(
     let Some(start) = run.start else {
         return Ok(None);
     };
-    std::fs::create_dir_all(&run.dir).map_err(|source| crate::run_dir::RunFileError {
-        path: run.dir.clone(),
-        source,
-    })?;
+    std::fs::create_dir_all(&run.dir).map_err(crate::run_dir::RunFileError::at(&run.dir))?;
     train(&run.config, &run.dir, start, report).map(Some)
 }
 

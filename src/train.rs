@@ -366,9 +366,6 @@ pub fn train(
 }
 
 fn save(agent: &dyn Agent, dir: &Path) -> Result<(), TrainError> {
-    std::fs::create_dir_all(dir).map_err(|source| RunFileError {
-        path: dir.to_path_buf(),
-        source,
-    })?;
+    std::fs::create_dir_all(dir).map_err(RunFileError::at(dir))?;
     Ok(agent.save(dir)?)
 }

@@ -63,7 +63,7 @@ fn under_the_reference_rules_the_goal_pays_beta_alone_and_the_own_goal_costs_bet
 #[test]
 fn the_reference_counters_end_episodes_after_20_ms_and_30_ms() {
     let config = FoosballConfig::preset(Preset::Reference);
-    let agent_dt = config.physics_dt * config.frame_skip as f32;
+    let agent_dt = config.agent_dt();
     assert_eq!(agent_dt, 0.002);
     assert_eq!(config.max_episode_steps as f32 * agent_dt, 40.0);
     // A resting ball: 10 steps of 2 ms.
@@ -79,7 +79,7 @@ fn the_reference_counters_end_episodes_after_20_ms_and_30_ms() {
     assert_eq!(ts.last().unwrap().info.end, Some(EndReason::NoProgress));
     // The paper's presets count the same rules in 10 ms agent steps.
     let paper = FoosballConfig::preset(Preset::Paper);
-    assert!((paper.physics_dt * paper.frame_skip as f32 - 0.01).abs() < 1e-7);
+    assert!((paper.agent_dt() - 0.01).abs() < 1e-7);
 }
 
 #[test]

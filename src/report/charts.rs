@@ -39,22 +39,21 @@ type Drawing<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
 type DrawError =
     DrawingAreaErrorKind<<BitMapBackend<'static> as plotters::backend::DrawingBackend>::ErrorType>;
 
-/// Draws a PNG of `size` pixels with `draw` into a temporary file renamed to `path`.
+/// Draws a PNG of `size` pixels with `draw` into `path`, atomically.
 fn png(
     path: &Path,
     size: (u32, u32),
     draw: impl FnOnce(&Drawing<'_>) -> Result<(), DrawError>,
 ) -> Result<(), ReportError> {
     register_font();
-    let tmp = path.with_extension("tmp.png");
-    {
-        let root = BitMapBackend::new(&tmp, size).into_drawing_area();
+    foosball_nets::atomic_file::replace_file(path, |tmp| {
+        let root = BitMapBackend::new(tmp, size).into_drawing_area();
         root.fill(&WHITE)
             .and_then(|()| draw(&root))
             .and_then(|()| root.present())
-            .map_err(|e| error(path, e))?;
-    }
-    std::fs::rename(&tmp, path).map_err(|e| error(path, e))
+            .map_err(|e| std::io::Error::other(e.to_string()))
+    })
+    .map_err(|e| error(path, e))
 }
 
 /// Writes a PNG bar chart of the five paper metrics (one panel each; a bar per group with

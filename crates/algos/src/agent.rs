@@ -55,11 +55,6 @@ impl Experience<'_> {
 pub struct Metrics(pub Vec<(&'static str, f64)>);
 
 impl Metrics {
-    /// The value named `name`, if reported.
-    pub fn get(&self, name: &str) -> Option<f64> {
-        self.0.iter().find(|(n, _)| *n == name).map(|(_, v)| *v)
-    }
-
     /// Averages each name over several rounds' metrics (names in first-seen order).
     pub fn mean(rounds: &[Metrics]) -> Metrics {
         let mut sums: Vec<(&'static str, f64, usize)> = Vec::new();

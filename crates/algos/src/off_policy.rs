@@ -71,11 +71,6 @@ impl<L: OffPolicyLearner> OffPolicy<L> {
     pub fn learner(&self) -> &L {
         &self.learner
     }
-
-    /// The replay buffer.
-    pub fn buffer(&self) -> &ReplayBuffer {
-        &self.buffer
-    }
 }
 
 impl<L: OffPolicyLearner> Agent for OffPolicy<L> {

@@ -45,11 +45,6 @@ impl<E: Env> Collector<E> {
         }
     }
 
-    /// The environments.
-    pub fn envs(&self) -> &VecEnv<E> {
-        &self.envs
-    }
-
     /// One vec-env step: act, step, observe, update. Calls `on_episode` for each episode
     /// that ended (in env order) and returns the training metrics if the agent trained.
     pub fn step(

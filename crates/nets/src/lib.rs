@@ -9,6 +9,7 @@
 //! backend's global RNG, so a seed fixes a network whatever the backend or thread count.
 
 pub mod actor;
+pub mod atomic_file;
 pub mod backend;
 pub mod critic;
 pub mod distributions;

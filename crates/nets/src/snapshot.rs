@@ -186,34 +186,32 @@ impl<'a> Snapshot<'a> {
         Ok(rng)
     }
 
-    /// Writes the snapshot to `path` through a temporary file renamed into place (synced
-    /// to disk first), so an interrupted write leaves any previous file intact.
+    /// Writes the snapshot to `path` atomically ([`crate::atomic_file`]), so an interrupted
+    /// write leaves any previous file intact.
     pub fn write(&self, path: &Path) -> Result<(), SnapshotError> {
-        let error = |e: std::io::Error| SnapshotError::File {
+        crate::atomic_file::replace_file(path, |tmp| {
+            let file = std::fs::File::create(tmp)?;
+            let mut out = std::io::BufWriter::with_capacity(1 << 20, file);
+            out.write_all(MAGIC)?;
+            out.write_all(&(self.entries.len() as u64).to_le_bytes())?;
+            for (name, entry) in &self.entries {
+                let name_len = u16::try_from(name.len()).expect("entry names are short");
+                out.write_all(&name_len.to_le_bytes())?;
+                out.write_all(name.as_bytes())?;
+                out.write_all(&[entry.kind().0])?;
+                match entry {
+                    Entry::F32(v) => write_words(&mut out, v, |x| x.to_le_bytes()),
+                    Entry::U64(v) => write_words(&mut out, v, |x| x.to_le_bytes()),
+                    Entry::U8(v) => write_words(&mut out, v, |x| [x]),
+                }?;
+            }
+            out.into_inner().map_err(|e| e.into_error())?;
+            Ok(())
+        })
+        .map_err(|e| SnapshotError::File {
             path: path.to_path_buf(),
             message: e.to_string(),
-        };
-        let tmp = path.with_extension("tmp");
-        let file = std::fs::File::create(&tmp).map_err(error)?;
-        let mut out = std::io::BufWriter::with_capacity(1 << 20, file);
-        out.write_all(MAGIC).map_err(error)?;
-        out.write_all(&(self.entries.len() as u64).to_le_bytes())
-            .map_err(error)?;
-        for (name, entry) in &self.entries {
-            let name_len = u16::try_from(name.len()).expect("entry names are short");
-            out.write_all(&name_len.to_le_bytes()).map_err(error)?;
-            out.write_all(name.as_bytes()).map_err(error)?;
-            out.write_all(&[entry.kind().0]).map_err(error)?;
-            match entry {
-                Entry::F32(v) => write_words(&mut out, v, |x| x.to_le_bytes()),
-                Entry::U64(v) => write_words(&mut out, v, |x| x.to_le_bytes()),
-                Entry::U8(v) => write_words(&mut out, v, |x| [x]),
-            }
-            .map_err(error)?;
-        }
-        let file = out.into_inner().map_err(|e| error(e.into_error()))?;
-        file.sync_all().map_err(error)?;
-        std::fs::rename(&tmp, path).map_err(error)
+        })
     }
 
     /// Reads a snapshot written by [`Snapshot::write`].

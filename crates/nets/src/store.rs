@@ -13,19 +13,16 @@ pub struct StoreError {
     pub message: String,
 }
 
-/// Writes `module`'s parameters to `path` through a temporary file renamed into place,
-/// so an interrupted write leaves the previous file intact.
+/// Writes `module`'s parameters to `path` atomically ([`crate::atomic_file`]), so an
+/// interrupted write leaves the previous file intact.
 pub fn save_module<M: Module>(module: &M, path: &Path) -> Result<(), StoreError> {
-    let error = |message: String| StoreError {
+    crate::atomic_file::replace_file(path, |tmp| {
+        module.clone().save_file(tmp).map_err(std::io::Error::other)
+    })
+    .map_err(|e| StoreError {
         path: path.to_path_buf(),
-        message,
-    };
-    let tmp = path.with_extension("tmp");
-    module
-        .clone()
-        .save_file(&tmp)
-        .map_err(|e| error(e.to_string()))?;
-    std::fs::rename(&tmp, path).map_err(|e| error(e.to_string()))
+        message: e.to_string(),
+    })
 }
 
 /// `module` with its parameters read from `path` (written by [`save_module`] for a
