@@ -3,8 +3,9 @@
 //! instead of an allocator abort), and its wall time, from a few env steps and gradient
 //! steps timed on a throwaway copy of the learner (a few seconds at most).
 
+use crate::agents::{build_agent, device};
 use crate::config::{Algo, RunConfig};
-use crate::train::{TrainError, build_agent, device};
+use crate::train::TrainError;
 use foosball_algos::{ActMode, Experience};
 use foosball_env::layout::{ACTION_DIM, OBS_DIM};
 use foosball_env::{Env, FoosballEnv};

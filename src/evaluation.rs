@@ -1,10 +1,19 @@
-//! Deterministic evaluation and test episodes on held-out seeds, several played side by
-//! side so the policy runs once per step for all of them.
+//! The evaluation API: episodes of a policy (a trained agent's deterministic action or a
+//! scripted controller) on held-out seeds, several played side by side so the policy runs
+//! once per step for all of them, and the test files they make.
 
-use crate::metrics::EpisodeSummary;
+use crate::metrics::{EpisodeSummary, TestMetrics};
+use crate::run_dir::{trajectories_bytes, write_atomic};
+use crate::train::TrainError;
 use foosball_algos::{ActMode, Agent};
-use foosball_env::{Env, EnvError, FoosballEnv, layout};
+use foosball_env::seeding::derive_seed;
+use foosball_env::{Env, EnvError, FoosballConfig, FoosballEnv, layout};
 use rayon::prelude::*;
+use std::path::Path;
+
+/// Deterministic episodes played side by side in evaluations and tests (part of the
+/// protocol: it fixes the policy's batch shape).
+pub const EVAL_BATCH: usize = 10;
 
 /// One episode's steps: observations acted on `[T, obs_dim]`, actions `[T, action_dim]`,
 /// rewards `[T]`.
@@ -134,4 +143,40 @@ pub fn play_deterministic(
         .into_iter()
         .map(|e| e.expect("every seed played"))
         .collect())
+}
+
+/// `n` tables of `env`.
+pub fn foosball_envs(env: &FoosballConfig, n: usize) -> Result<Vec<FoosballEnv>, TrainError> {
+    (0..n)
+        .map(|_| FoosballEnv::new(env.clone()).map_err(|e| TrainError::Env(format!("env.{e}"))))
+        .collect()
+}
+
+/// Episodes played by `policy` on the `stream`'s seeds `0..n` (derived from the run
+/// seed `seed`), [`EVAL_BATCH`] side by side.
+pub fn play(
+    policy: &mut BatchPolicy<'_>,
+    env: &FoosballConfig,
+    seed: u64,
+    stream: u64,
+    n: u32,
+    record: bool,
+) -> Result<Vec<PlayedEpisode>, TrainError> {
+    let seeds: Vec<u64> = (0..u64::from(n))
+        .map(|k| derive_seed(seed, stream, k))
+        .collect();
+    let mut envs = foosball_envs(env, EVAL_BATCH.min(seeds.len()))?;
+    Ok(play_deterministic(policy, &mut envs, &seeds, record)?)
+}
+
+/// Writes `metrics.json`, `metrics.md` and `trajectories.bin` into `dir`.
+pub fn write_test(dir: &Path, episodes: &[PlayedEpisode]) -> Result<TestMetrics, TrainError> {
+    let summaries: Vec<EpisodeSummary> = episodes.iter().map(|e| e.summary).collect();
+    let metrics = TestMetrics::from_episodes(&summaries);
+    let json = serde_json::to_string_pretty(&metrics).expect("metrics serialise");
+    write_atomic(&dir.join("metrics.json"), json.as_bytes())?;
+    write_atomic(&dir.join("metrics.md"), metrics.to_markdown().as_bytes())?;
+    let bytes = trajectories_bytes(episodes, layout::OBS_DIM, layout::ACTION_DIM);
+    write_atomic(&dir.join("trajectories.bin"), &bytes)?;
+    Ok(metrics)
 }

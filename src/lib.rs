@@ -3,10 +3,12 @@
 //! - [`env`]: the table (rapier3d), Pendulum, vectorised environments, seeding;
 //! - [`nets`]: Burn networks, distributions, Adam;
 //! - [`algos`]: PPO, SAC, TD3, buffers and the agent/rollout shape;
+//! - [`agents`]: the learner a run configuration asks for, on its backend's device;
 //! - [`budget`]: memory a run will need, checked before allocating;
 //! - [`cli`]: what the command-line tools share;
 //! - [`config`]: the run configuration (`configs/*.toml`);
-//! - [`evaluation`]: deterministic episodes on held-out seeds, played side by side;
+//! - [`evaluation`]: the evaluation API: a policy's episodes on held-out seeds, played
+//!   side by side, and the test files;
 //! - [`metrics`]: the paper's test metrics with confidence intervals;
 //! - [`policy`]: scripted yellow policies (shooter, dribbler, zero, random);
 //! - [`report`]: side-by-side tables and charts of several runs;
@@ -17,6 +19,7 @@
 //! - [`sweep`]: algorithms x seeds into one directory, resumable;
 //! - [`train`]: the training loop shared by the three algorithms.
 
+pub mod agents;
 pub mod budget;
 pub mod checkpoint;
 pub mod cli;

@@ -11,11 +11,12 @@
 use crate::checkpoint;
 use crate::config::{Algo, RunConfig};
 use crate::evaluation::PlayedEpisode;
+use crate::evaluation::{play, write_test};
 use crate::metrics::TestMetrics;
 use crate::policy::ScriptedPolicy;
 use crate::report::Baseline;
 use crate::run_dir::write_atomic;
-use crate::train::{Progress, Start, TrainError, play, train, write_test};
+use crate::train::{Progress, Start, TrainError, train};
 use foosball_env::seeding::TEST_ENVS;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};

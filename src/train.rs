@@ -2,24 +2,19 @@
 //! schedule counted in env steps, best and last networks, checkpoints at epoch ends
 //! (resumable), then the test phase.
 
+use crate::agents::{build_agent, device};
 use crate::checkpoint::{self, CheckpointError, LoopState};
-use crate::config::{Algo, RunConfig};
-use crate::evaluation::{BatchPolicy, PlayedEpisode, deterministic, play_deterministic};
-use crate::metrics::{EpisodeSummary, TestMetrics};
-use crate::run_dir::{RunFileError, trajectories_bytes, write_atomic};
+use crate::config::RunConfig;
+use crate::evaluation::{deterministic, foosball_envs, play, write_test};
+use crate::metrics::TestMetrics;
+use crate::run_dir::{RunFileError, write_atomic};
 use crate::run_log::{CSV_FILES, RunLog, Speed};
-use foosball_algos::{Agent, AgentError, Collector, Ppo, Sac, Td3};
-use foosball_env::seeding::{EVAL_ENVS, LEARNER, TEST_ENVS, TRAIN_ENVS, derive_seed};
-use foosball_env::{
-    EnvError, FoosballConfig, FoosballEnv, FoosballInfo, VecEnv, VecEnvError, layout,
-};
-use foosball_nets::{Backend, BackendError, Device};
+use foosball_algos::{Agent, AgentError, Collector};
+use foosball_env::seeding::{EVAL_ENVS, TEST_ENVS, TRAIN_ENVS, derive_seed};
+use foosball_env::{EnvError, FoosballInfo, VecEnv, VecEnvError};
+use foosball_nets::BackendError;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
-
-/// Deterministic episodes played side by side in evaluations and tests (part of the
-/// protocol: it fixes the policy's batch shape).
-pub const EVAL_BATCH: usize = 10;
 
 /// Env steps between rows of training scalars (metrics averaged over them).
 pub const LOG_EVERY: u64 = 1_000;
@@ -105,79 +100,6 @@ pub enum Start {
     Fresh,
     /// From the directory's last checkpoint.
     Resume,
-}
-
-/// The agent `config` asks for, its networks drawn from the learner stream.
-pub fn build_agent(config: &RunConfig, device: &Device) -> Box<dyn Agent + Send> {
-    let seed = derive_seed(config.protocol.seed, LEARNER, 0);
-    let (o, a) = (layout::OBS_DIM, layout::ACTION_DIM);
-    match config.algo {
-        Algo::Ppo => Box::new(Ppo::new(
-            o,
-            a,
-            config.ppo.clone().expect("filled"),
-            seed,
-            device,
-        )),
-        Algo::Sac => Box::new(Sac::agent(
-            o,
-            a,
-            config.sac.clone().expect("filled"),
-            seed,
-            device,
-        )),
-        Algo::Td3 => Box::new(Td3::agent(
-            o,
-            a,
-            config.td3.clone().expect("filled"),
-            seed,
-            device,
-        )),
-    }
-}
-
-/// The device of the configured backend (the default CPU backend when unset).
-pub fn device(config: &RunConfig) -> Result<Device, TrainError> {
-    let backend = match config.protocol.backend {
-        Some(b) => b,
-        None => Backend::default_cpu()?,
-    };
-    Ok(backend.device()?)
-}
-
-fn foosball_envs(env: &FoosballConfig, n: usize) -> Result<Vec<FoosballEnv>, TrainError> {
-    (0..n)
-        .map(|_| FoosballEnv::new(env.clone()).map_err(|e| TrainError::Env(format!("env.{e}"))))
-        .collect()
-}
-
-/// Episodes played by `policy` on the `stream`'s seeds `0..n` (derived from the run
-/// seed `seed`), [`EVAL_BATCH`] side by side.
-pub fn play(
-    policy: &mut BatchPolicy<'_>,
-    env: &FoosballConfig,
-    seed: u64,
-    stream: u64,
-    n: u32,
-    record: bool,
-) -> Result<Vec<PlayedEpisode>, TrainError> {
-    let seeds: Vec<u64> = (0..u64::from(n))
-        .map(|k| derive_seed(seed, stream, k))
-        .collect();
-    let mut envs = foosball_envs(env, EVAL_BATCH.min(seeds.len()))?;
-    Ok(play_deterministic(policy, &mut envs, &seeds, record)?)
-}
-
-/// Writes `metrics.json`, `metrics.md` and `trajectories.bin` into `dir`.
-pub fn write_test(dir: &Path, episodes: &[PlayedEpisode]) -> Result<TestMetrics, TrainError> {
-    let summaries: Vec<EpisodeSummary> = episodes.iter().map(|e| e.summary).collect();
-    let metrics = TestMetrics::from_episodes(&summaries);
-    let json = serde_json::to_string_pretty(&metrics).expect("metrics serialise");
-    write_atomic(&dir.join("metrics.json"), json.as_bytes())?;
-    write_atomic(&dir.join("metrics.md"), metrics.to_markdown().as_bytes())?;
-    let bytes = trajectories_bytes(episodes, layout::OBS_DIM, layout::ACTION_DIM);
-    write_atomic(&dir.join("trajectories.bin"), &bytes)?;
-    Ok(metrics)
 }
 
 /// Seeds of the training envs from the start of epoch `epoch` (0-based) on: env `i`

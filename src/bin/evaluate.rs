@@ -2,14 +2,16 @@
 //! of a scripted policy (`--policy shooter|dribbler|zero|random`) under a rule preset.
 
 use clap::{Parser, ValueEnum};
+use foosball_rl::agents::{build_agent, device};
 use foosball_rl::cli::finish;
 use foosball_rl::config::RunConfig;
 use foosball_rl::env::seeding::TEST_ENVS;
 use foosball_rl::env::{FoosballConfig, Preset};
 use foosball_rl::evaluation::deterministic;
+use foosball_rl::evaluation::{play, write_test};
 use foosball_rl::policy::ScriptedPolicy;
 use foosball_rl::report::Baseline;
-use foosball_rl::train::{TrainError, build_agent, device, play, write_test};
+use foosball_rl::train::TrainError;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
