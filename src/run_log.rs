@@ -30,8 +30,6 @@ use tensorboard_rs::summary_writer::FileWriter;
 pub const CSV_FILES: [&str; 3] = ["episodes.csv", "evaluations.csv", "scalars.csv"];
 
 const EPISODES_HEADER: &str = "env_step,return,length,scored,end";
-const EVALUATIONS_HEADER: &str = "env_step,mean_return,score_rate,mean_goal_distance,\
-mean_ball_speed,mean_final_distance,mean_length";
 const SCALARS_HEADER: &str = "env_step,tag,value";
 
 /// Training speed over one logging window.
@@ -41,6 +39,105 @@ pub struct Speed {
     pub steps_per_second: f64,
     /// Gradient steps per second.
     pub updates_per_second: f64,
+}
+
+/// One row of `evaluations.csv`: the env step and the mean metrics of an evaluation's
+/// episodes. The one schema its writer and its readers share; readers go by column name.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EvaluationRow {
+    /// Env steps done when the evaluation ran.
+    pub env_step: u64,
+    /// The metrics, in [`EvaluationRow::METRICS`] order.
+    pub values: [f64; 6],
+}
+
+impl EvaluationRow {
+    /// Metric columns after `env_step` (also the `eval/<name>` TensorBoard tags).
+    pub const METRICS: [&'static str; 6] = [
+        "mean_return",
+        "score_rate",
+        "mean_goal_distance",
+        "mean_ball_speed",
+        "mean_final_distance",
+        "mean_length",
+    ];
+
+    /// The row of an evaluation at `env_step`.
+    pub fn new(env_step: u64, m: &TestMetrics) -> Self {
+        let values = [
+            m.mean_return.mean,
+            m.score_rate.mean,
+            m.mean_goal_distance.mean,
+            m.mean_ball_speed.mean,
+            m.mean_final_distance.mean,
+            m.mean_length.mean,
+        ];
+        Self { env_step, values }
+    }
+
+    /// The header line.
+    pub fn header() -> String {
+        std::iter::once("env_step")
+            .chain(Self::METRICS)
+            .collect::<Vec<_>>()
+            .join(",")
+    }
+
+    /// The CSV line.
+    pub fn line(&self) -> String {
+        std::iter::once(self.env_step.to_string())
+            .chain(self.values.iter().map(f64::to_string))
+            .collect::<Vec<_>>()
+            .join(",")
+    }
+
+    /// The value of metric `name` (one of [`EvaluationRow::METRICS`]).
+    pub fn get(&self, name: &str) -> Option<f64> {
+        Self::METRICS
+            .iter()
+            .position(|m| *m == name)
+            .map(|k| self.values[k])
+    }
+
+    /// Reads `evaluations.csv` by its header's column names (a missing file has no rows);
+    /// the error names the line or the missing column.
+    pub fn read(path: &Path) -> Result<Vec<Self>, String> {
+        let Ok(text) = std::fs::read_to_string(path) else {
+            return Ok(Vec::new());
+        };
+        let mut lines = text.lines();
+        let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
+        let column = |name: &str| {
+            header
+                .iter()
+                .position(|h| *h == name)
+                .ok_or_else(|| format!("no `{name}` column"))
+        };
+        let step = column("env_step")?;
+        let metrics: Vec<usize> = Self::METRICS
+            .iter()
+            .map(|m| column(m))
+            .collect::<Result<_, _>>()?;
+        lines
+            .enumerate()
+            .map(|(i, line)| {
+                let cols: Vec<&str> = line.split(',').collect();
+                let bad = || format!("line {}: not a number", i + 2);
+                let num = |k: usize| cols.get(k).and_then(|v| v.parse::<f64>().ok());
+                let mut values = [0.0; 6];
+                for (v, &k) in values.iter_mut().zip(&metrics) {
+                    *v = num(k).ok_or_else(bad)?;
+                }
+                Ok(Self {
+                    env_step: cols
+                        .get(step)
+                        .and_then(|v| v.parse().ok())
+                        .ok_or_else(bad)?,
+                    values,
+                })
+            })
+            .collect()
+    }
 }
 
 /// A training episode as logged.
@@ -207,22 +304,16 @@ impl RunLog {
 
     /// Writes an evaluation's metrics at `env_step`.
     pub fn evaluation(&mut self, env_step: u64, m: &TestMetrics) -> Result<(), RunFileError> {
-        let values = [
-            ("mean_return", m.mean_return.mean),
-            ("score_rate", m.score_rate.mean),
-            ("mean_goal_distance", m.mean_goal_distance.mean),
-            ("mean_ball_speed", m.mean_ball_speed.mean),
-            ("mean_final_distance", m.mean_final_distance.mean),
-            ("mean_length", m.mean_length.mean),
-        ];
-        let line = std::iter::once(env_step.to_string())
-            .chain(values.iter().map(|(_, v)| v.to_string()))
-            .collect::<Vec<_>>()
-            .join(",");
-        append_csv(&self.dir.join(CSV_FILES[1]), EVALUATIONS_HEADER, &[line])?;
-        let mut rows: Vec<(String, f64)> = values
+        let row = EvaluationRow::new(env_step, m);
+        append_csv(
+            &self.dir.join(CSV_FILES[1]),
+            &EvaluationRow::header(),
+            &[row.line()],
+        )?;
+        let mut rows: Vec<(String, f64)> = EvaluationRow::METRICS
             .iter()
-            .map(|(name, v)| (format!("eval/{name}"), *v))
+            .zip(row.values)
+            .map(|(name, v)| (format!("eval/{name}"), v))
             .collect();
         rows.extend(EndReason::ALL.iter().map(|r| {
             (

@@ -13,6 +13,7 @@ use crate::config::{ConfigFileError, RunConfig};
 use crate::metrics::{Estimate, TestMetrics};
 use crate::policy::ScriptedPolicy;
 use crate::run_dir::{RunFileError, write_atomic};
+use crate::run_log::EvaluationRow;
 use crate::stats::{self, iqm, mean};
 use foosball_env::FoosballConfig;
 use serde::{Deserialize, Serialize};
@@ -89,35 +90,16 @@ fn read_metrics(path: &Path) -> Result<TestMetrics, ReportError> {
     serde_json::from_str(&text).map_err(|e| error(path, e))
 }
 
-/// Reads `evaluations.csv` by its header's column names.
+/// `(env_step, mean_return, score_rate)` of every evaluation in `path`.
 fn read_evaluations(path: &Path) -> Result<Vec<EvalPoint>, ReportError> {
-    let Ok(text) = std::fs::read_to_string(path) else {
-        return Ok(Vec::new());
-    };
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
-    let col = |name: &str| {
-        header
-            .iter()
-            .position(|h| *h == name)
-            .ok_or_else(|| error(path, format!("no `{name}` column")))
-    };
-    let (step, ret, score) = (col("env_step")?, col("mean_return")?, col("score_rate")?);
-    lines
-        .enumerate()
-        .map(|(i, line)| {
-            let cols: Vec<&str> = line.split(',').collect();
-            let bad = || error(path, format!("line {}: not a number", i + 2));
-            let num = |k: usize| cols.get(k).and_then(|v| v.parse::<f64>().ok());
-            Ok((
-                cols.get(step)
-                    .and_then(|v| v.parse::<u64>().ok())
-                    .ok_or_else(bad)?,
-                num(ret).ok_or_else(bad)?,
-                num(score).ok_or_else(bad)?,
-            ))
+    let rows = EvaluationRow::read(path).map_err(|e| error(path, e))?;
+    Ok(rows
+        .iter()
+        .map(|r| {
+            let v = |name| r.get(name).expect("a metric of the schema");
+            (r.env_step, v("mean_return"), v("score_rate"))
         })
-        .collect()
+        .collect())
 }
 
 /// The preset's name, with `*` where `env` differs from the preset's values.
