@@ -1,10 +1,12 @@
-//! The files of a run directory, written atomically (temporary file, then rename).
+//! The files of a run directory, written atomically ([`foosball_nets::atomic_file`]) but
+//! for the append-only CSV logs, which a resume cuts back to its checkpoint.
 //!
 //! ```text
 //! RUN/config.toml          effective configuration
 //! RUN/episodes.csv         env_step,return,length,scored,end  (training episodes)
-//! RUN/evaluations.csv      env_step,mean_return,score_rate,mean_goal_distance
-//! RUN/updates.csv          env_step,name,value                (losses, alpha, ...)
+//! RUN/evaluations.csv      env_step and the mean metrics ([`crate::run_log::EvaluationRow`])
+//! RUN/scalars.csv          env_step,tag,value                 (every TensorBoard scalar)
+//! RUN/tensorboard/         TensorBoard event files
 //! RUN/last/, RUN/best/     networks (Burn records) after the last epoch / best evaluation
 //! RUN/test/metrics.json    the paper's five metrics with 95 % intervals
 //! RUN/test/metrics.md      the same as a markdown table

@@ -4,8 +4,8 @@
 
 mod common;
 
-use foosball_rl::algos::gae::gae;
 use foosball_rl::algos::ppo::{clipped_surrogate, normalize_advantages};
+use foosball_rl::algos::rollout_buffer::gae;
 use foosball_rl::algos::tensors::{host, matrix, vector};
 use foosball_rl::nets::distributions::{
     diag_gaussian_entropy, diag_gaussian_log_prob, squashed_gaussian_log_prob,

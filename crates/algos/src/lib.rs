@@ -1,17 +1,18 @@
 //! Learning algorithms for foosball-rl: PPO, SAC and TD3 with Stable-Baselines3's
-//! definitions, the replay buffer SAC and TD3 share, PPO's rollout buffer and GAE, and
-//! the [`Agent`] shape through which one training loop drives all three.
+//! definitions, the replay buffer SAC and TD3 share (`replay`), PPO's rollout buffer and
+//! GAE (`rollout_buffer`), the collector that steps a VecEnv for any of them (`rollout`),
+//! and the [`Agent`] shape through which one training loop drives all three.
 //!
 //! Each algorithm file states its update equations at the top (CleanRL style); the
 //! networks and Adam live in `foosball-nets`, the environments in `foosball-env`.
 
 pub mod agent;
 pub mod config;
-pub mod gae;
 pub mod off_policy;
 pub mod ppo;
 pub mod replay;
 pub mod rollout;
+pub mod rollout_buffer;
 pub mod sac;
 pub mod schedule;
 pub mod td3;

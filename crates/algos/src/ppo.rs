@@ -9,7 +9,7 @@
 
 use crate::agent::{ActMode, Agent, AgentError, Experience, Metrics};
 use crate::config::{ConfigError, NetConfig, ensure};
-use crate::gae::{RolloutBuffer, gae};
+use crate::rollout_buffer::{RolloutBuffer, gae};
 use crate::schedule::LrSchedule;
 use crate::tensors::{host, matrix, mean, standard_normal, vector};
 use burn::module::Module;

@@ -5,10 +5,10 @@
 //!
 //! | stream | used for |
 //! | --- | --- |
-//! | [`TRAIN_ENVS`] | training environment `index` (first reset of each VecEnv worker) |
+//! | [`TRAIN_ENVS`] | training environments: worker `i` of `n` starts epoch `e` (0-based) from `index = e * n + i` |
 //! | [`EVAL_ENVS`]  | evaluation episode `index` (held out from training) |
 //! | [`TEST_ENVS`]  | final-test episode `index` (held out from both) |
-//! | [`LEARNER`]    | component `index` of a learning algorithm (init, sampling, noise) |
+//! | [`LEARNER`]    | the learner's own stream (`index` 0: network init, sampling, noise) |
 
 /// Stream of the training environments.
 pub const TRAIN_ENVS: u64 = 1;
