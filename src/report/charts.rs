@@ -179,10 +179,9 @@ pub fn learning_curves(groups: &[Group], path: &Path) -> Result<(), ReportError>
             let bands: Vec<Band> = learners
                 .iter()
                 .map(|g| {
-                    (
-                        format!("{} ({} seeds)", g.label, g.runs.len()),
-                        band(g, value),
-                    )
+                    let n = g.runs.len();
+                    let seeds = if n == 1 { "seed" } else { "seeds" };
+                    (format!("{} ({n} {seeds})", g.label), band(g, value))
                 })
                 .collect();
             curve_panel(panel, title, &bands, range)?;
