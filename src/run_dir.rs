@@ -99,3 +99,91 @@ pub fn trajectories_bytes(
     }
     out
 }
+
+/// One episode read back from `trajectories.bin`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RecordedEpisode {
+    /// The seed it was reset with.
+    pub seed: u64,
+    /// Its steps.
+    pub trajectory: crate::evaluation::Trajectory,
+}
+
+/// Reads a `trajectories.bin` written by [`trajectories_bytes`] (any observation and action
+/// widths); the error says what is wrong with the file (another format or version, cut
+/// short).
+pub fn read_trajectories(path: &Path) -> Result<Vec<RecordedEpisode>, String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let fail = |what: String| format!("{}: {what}", path.display());
+    let mut cursor = Cursor {
+        bytes: &bytes,
+        at: 0,
+    };
+    if cursor.take(4).map_err(&fail)? != b"FSBT" {
+        return Err(fail("not a trajectories file (no FSBT magic)".into()));
+    }
+    let version = cursor.u32().map_err(&fail)?;
+    if version != 1 {
+        return Err(fail(format!(
+            "format version {version}; this build reads version 1"
+        )));
+    }
+    let obs_dim = cursor.u32().map_err(&fail)? as usize;
+    let action_dim = cursor.u32().map_err(&fail)? as usize;
+    let n = cursor.u64().map_err(&fail)?;
+    (0..n)
+        .map(|_| {
+            let seed = cursor.u64()?;
+            let steps = cursor.u32()? as usize;
+            Ok(RecordedEpisode {
+                seed,
+                trajectory: crate::evaluation::Trajectory {
+                    obs: cursor.f32s(steps * obs_dim)?,
+                    actions: cursor.f32s(steps * action_dim)?,
+                    rewards: cursor.f32s(steps)?,
+                },
+            })
+        })
+        .collect::<Result<_, String>>()
+        .map_err(fail)
+}
+
+/// Little-endian reads from a byte slice; running out is an error naming the offset.
+struct Cursor<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl Cursor<'_> {
+    fn take(&mut self, n: usize) -> Result<&[u8], String> {
+        let chunk = self.bytes.get(self.at..self.at + n).ok_or_else(|| {
+            format!(
+                "truncated at byte {} (file of {} bytes)",
+                self.at,
+                self.bytes.len()
+            )
+        })?;
+        self.at += n;
+        Ok(chunk)
+    }
+
+    fn u32(&mut self) -> Result<u32, String> {
+        Ok(u32::from_le_bytes(
+            self.take(4)?.try_into().expect("4 bytes"),
+        ))
+    }
+
+    fn u64(&mut self) -> Result<u64, String> {
+        Ok(u64::from_le_bytes(
+            self.take(8)?.try_into().expect("8 bytes"),
+        ))
+    }
+
+    fn f32s(&mut self, n: usize) -> Result<Vec<f32>, String> {
+        Ok(self
+            .take(4 * n)?
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")))
+            .collect())
+    }
+}

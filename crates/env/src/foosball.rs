@@ -24,6 +24,7 @@ use crate::layout::{
     ROD_SLIDE_VEL, action_slide, action_turn,
 };
 use crate::opponent::{Opponent, opponent_for};
+use crate::render::{Frame, Renderer};
 use crate::table::{PhysicsParams, Table};
 
 /// Why an episode ended.
@@ -192,6 +193,12 @@ impl FoosballEnv {
     /// ball). The episode's counters are left as they are.
     pub fn table_mut(&mut self) -> Option<&mut Table> {
         self.table.as_mut()
+    }
+
+    /// The current state drawn by `renderer` (None before the first reset): an RGB frame,
+    /// `[height, width, 3]` (Gymnasium's `render()` in `rgb_array` mode).
+    pub fn render(&self, renderer: &Renderer) -> Option<Frame> {
+        self.episode.as_ref().map(|e| renderer.draw(&e.state))
     }
 
     /// The randomised quantities of the current episode.

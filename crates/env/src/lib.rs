@@ -5,6 +5,7 @@
 //! - [`Pendulum`]: Gymnasium's `Pendulum-v1`, exact, for validating learners.
 //! - [`VecEnv`]: many environments stepped in parallel with rayon, auto-reset,
 //!   reproducible whatever the thread count.
+//! - [`render`]: top-down RGB frames of a table state (Gymnasium's `rgb_array`).
 //! - [`scripted`]: hand-written shooter and dribbler, the yardsticks for learners.
 //! - [`geometry`] and [`layout`]: the table's numbers and the observation/action index
 //!   table; [`seeding`]: how every random stream derives from one run seed.
@@ -18,6 +19,7 @@ pub mod geometry;
 pub mod layout;
 pub mod opponent;
 pub mod pendulum;
+pub mod render;
 pub mod scripted;
 pub mod seeding;
 pub mod servo;

@@ -1,0 +1,129 @@
+//! `render`: animated GIFs of recorded episodes (a run's `test/trajectories.bin`), drawn
+//! top-down by `foosball_env::render`.
+
+use clap::Parser;
+use foosball_rl::cli::finish;
+use foosball_rl::env::layout::OBS_DIM;
+use foosball_rl::env::render::{Frame, Renderer};
+use foosball_rl::nets::atomic_file::replace_file;
+use foosball_rl::run_dir::{RecordedEpisode, read_trajectories};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// Turn recorded episodes into animated GIFs.
+#[derive(Parser, Debug)]
+#[command(version, about)]
+struct Args {
+    /// A `trajectories.bin` (e.g. `RUN/test/trajectories.bin`).
+    #[arg(long)]
+    trajectories: PathBuf,
+    /// Episodes by index, e.g. `0,5,9`.
+    #[arg(long, value_delimiter = ',', conflicts_with_all = ["best", "worst"])]
+    episodes: Option<Vec<usize>>,
+    /// The N episodes of highest return.
+    #[arg(long, value_name = "N", conflicts_with = "worst")]
+    best: Option<usize>,
+    /// The N episodes of lowest return.
+    #[arg(long, value_name = "N")]
+    worst: Option<usize>,
+    /// Pixels per cm.
+    #[arg(long, default_value_t = 3.0)]
+    scale: f32,
+    /// Draw every Nth step.
+    #[arg(long, default_value_t = 5)]
+    every: usize,
+    /// Delay between frames, hundredths of a second.
+    #[arg(long, default_value_t = 4)]
+    delay_cs: u16,
+    /// Output folder (one `episode-<index>.gif` each).
+    #[arg(long, default_value = "render")]
+    out: PathBuf,
+}
+
+/// Indices of the episodes to draw.
+fn pick(args: &Args, episodes: &[RecordedEpisode]) -> Result<Vec<usize>, String> {
+    let ret = |i: usize| {
+        episodes[i]
+            .trajectory
+            .rewards
+            .iter()
+            .map(|&r| f64::from(r))
+            .sum::<f64>()
+    };
+    let mut by_return: Vec<usize> = (0..episodes.len()).collect();
+    by_return.sort_by(|&a, &b| ret(b).total_cmp(&ret(a)));
+    let picked = match (&args.episodes, args.best, args.worst) {
+        (Some(list), _, _) => list.clone(),
+        (None, Some(n), _) => by_return.into_iter().take(n).collect(),
+        (None, None, Some(n)) => by_return.into_iter().rev().take(n).collect(),
+        (None, None, None) => vec![0],
+    };
+    match picked.iter().find(|&&i| i >= episodes.len()) {
+        Some(i) => Err(format!(
+            "--episodes: episode {i} is out of range ({} episodes recorded)",
+            episodes.len()
+        )),
+        None => Ok(picked),
+    }
+}
+
+/// Writes `frames` as a looping GIF to `path`, atomically.
+fn write_gif(path: &Path, frames: &[Frame], delay_cs: u16) -> Result<(), String> {
+    replace_file(path, |tmp| {
+        let (w, h) = (frames[0].width as u16, frames[0].height as u16);
+        let file = std::fs::File::create(tmp)?;
+        let mut encoder = gif::Encoder::new(file, w, h, &[]).map_err(std::io::Error::other)?;
+        encoder
+            .set_repeat(gif::Repeat::Infinite)
+            .map_err(std::io::Error::other)?;
+        for f in frames {
+            let mut frame = gif::Frame::from_rgb_speed(w, h, &f.rgb, 10);
+            frame.delay = delay_cs;
+            encoder.write_frame(&frame).map_err(std::io::Error::other)?;
+        }
+        Ok(())
+    })
+    .map_err(|e| format!("{}: {e}", path.display()))
+}
+
+fn run(args: &Args) -> Result<String, String> {
+    if !(args.scale > 0.0 && args.scale <= 20.0) || args.every == 0 {
+        return Err(format!(
+            "--scale must be in (0, 20] and --every positive, got {} and {}",
+            args.scale, args.every
+        ));
+    }
+    let episodes = read_trajectories(&args.trajectories)?;
+    if episodes.is_empty() {
+        return Err(format!(
+            "{}: no episodes recorded",
+            args.trajectories.display()
+        ));
+    }
+    let renderer = Renderer::new(args.scale);
+    std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
+    let mut written = Vec::new();
+    for index in pick(args, &episodes)? {
+        let t = &episodes[index].trajectory;
+        let frames: Vec<Frame> = t
+            .obs
+            .chunks_exact(OBS_DIM)
+            .step_by(args.every)
+            .map(|row| renderer.draw(row.try_into().expect("chunks of OBS_DIM")))
+            .collect();
+        let path = args.out.join(format!("episode-{index}.gif"));
+        write_gif(&path, &frames, args.delay_cs)?;
+        let ret: f32 = t.rewards.iter().sum();
+        written.push(format!(
+            "{} ({} steps, return {ret:.0}, seed {})",
+            path.display(),
+            t.rewards.len(),
+            episodes[index].seed
+        ));
+    }
+    Ok(written.join("\n"))
+}
+
+fn main() -> ExitCode {
+    finish(run(&Args::parse()))
+}
