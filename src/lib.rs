@@ -4,6 +4,7 @@
 //! - [`nets`]: Burn networks, distributions, Adam;
 //! - [`algos`]: PPO, SAC, TD3, buffers and the agent/rollout shape;
 //! - [`agents`]: the learner a run configuration asks for, on its backend's device;
+//! - [`animation`]: episodes as animated GIFs;
 //! - [`budget`]: memory a run will need, checked before allocating;
 //! - [`cli`]: what the command-line tools share;
 //! - [`config`]: the run configuration (`configs/*.toml`);
@@ -20,6 +21,7 @@
 //! - [`train`]: the training loop shared by the three algorithms.
 
 pub mod agents;
+pub mod animation;
 pub mod budget;
 pub mod checkpoint;
 pub mod cli;

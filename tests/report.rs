@@ -74,6 +74,12 @@ fn report_tables_and_charts_several_runs() {
         "{md}"
     );
     assert_eq!(png_size(&out.join("metrics.png")), (1500, 360));
+    // The runs kept their test trajectories: each group's best and worst episode as GIFs.
+    assert!(md.contains("# Test episodes"), "{md}");
+    for gif in ["ppo_reference__16-best.gif", "sac_reference__16-worst.gif"] {
+        assert!(md.contains(gif), "{gif} not in\n{md}");
+        assert_eq!(&std::fs::read(out.join(gif)).unwrap()[..6], b"GIF89a");
+    }
     assert_eq!(png_size(&out.join("curves.png")), (1200, 450));
 
     let unfinished = dir.join("unfinished");

@@ -2,12 +2,11 @@
 //! top-down by `foosball_env::render`.
 
 use clap::Parser;
+use foosball_rl::animation::episode_gif;
 use foosball_rl::cli::finish;
-use foosball_rl::env::layout::OBS_DIM;
-use foosball_rl::env::render::{Frame, Renderer};
-use foosball_rl::nets::atomic_file::replace_file;
+use foosball_rl::env::render::Renderer;
 use foosball_rl::run_dir::{RecordedEpisode, read_trajectories};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 /// Turn recorded episodes into animated GIFs.
@@ -67,25 +66,6 @@ fn pick(args: &Args, episodes: &[RecordedEpisode]) -> Result<Vec<usize>, String>
     }
 }
 
-/// Writes `frames` as a looping GIF to `path`, atomically.
-fn write_gif(path: &Path, frames: &[Frame], delay_cs: u16) -> Result<(), String> {
-    replace_file(path, |tmp| {
-        let (w, h) = (frames[0].width as u16, frames[0].height as u16);
-        let file = std::fs::File::create(tmp)?;
-        let mut encoder = gif::Encoder::new(file, w, h, &[]).map_err(std::io::Error::other)?;
-        encoder
-            .set_repeat(gif::Repeat::Infinite)
-            .map_err(std::io::Error::other)?;
-        for f in frames {
-            let mut frame = gif::Frame::from_rgb_speed(w, h, &f.rgb, 10);
-            frame.delay = delay_cs;
-            encoder.write_frame(&frame).map_err(std::io::Error::other)?;
-        }
-        Ok(())
-    })
-    .map_err(|e| format!("{}: {e}", path.display()))
-}
-
 fn run(args: &Args) -> Result<String, String> {
     if !(args.scale > 0.0 && args.scale <= 20.0) || args.every == 0 {
         return Err(format!(
@@ -105,14 +85,8 @@ fn run(args: &Args) -> Result<String, String> {
     let mut written = Vec::new();
     for index in pick(args, &episodes)? {
         let t = &episodes[index].trajectory;
-        let frames: Vec<Frame> = t
-            .obs
-            .chunks_exact(OBS_DIM)
-            .step_by(args.every)
-            .map(|row| renderer.draw(row.try_into().expect("chunks of OBS_DIM")))
-            .collect();
         let path = args.out.join(format!("episode-{index}.gif"));
-        write_gif(&path, &frames, args.delay_cs)?;
+        episode_gif(&path, t, &renderer, args.every, args.delay_cs)?;
         let ret: f32 = t.rewards.iter().sum();
         written.push(format!(
             "{} ({} steps, return {ret:.0}, seed {})",

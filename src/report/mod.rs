@@ -71,6 +71,8 @@ pub type EvalPoint = (u64, f64, f64);
 pub struct RunResults {
     /// The directory's name.
     pub name: String,
+    /// The directory.
+    pub dir: PathBuf,
     /// What played: `ppo`, `sac`, `td3`, or a scripted policy's name.
     pub player: String,
     /// The table's rule preset, marked `*` where the configuration changes any of its
@@ -125,6 +127,7 @@ impl RunResults {
         let config = RunConfig::load_run(dir)?;
         Ok(Self {
             name: dir_name(dir),
+            dir: dir.to_path_buf(),
             player: config.algo.to_string(),
             preset: preset_label(&config.env),
             hidden: config.hidden().to_vec(),
@@ -140,6 +143,7 @@ impl RunResults {
         let b: Baseline = toml::from_str(&text).map_err(|e| error(&path, e.message().trim()))?;
         Ok(Self {
             name: dir_name(dir),
+            dir: dir.to_path_buf(),
             player: b.policy.name().to_string(),
             preset: preset_label(&b.env),
             hidden: Vec::new(),
@@ -334,6 +338,59 @@ pub fn markdown_tables(groups: &[Group]) -> String {
     out
 }
 
+/// For each learner group whose first run kept its test trajectories, GIFs of that run's
+/// best and worst test episode (by return) in `out`, as markdown; nothing where no run
+/// has them (`trajectories.bin` is not committed with results).
+fn episode_gifs(groups: &[Group], out: &Path) -> Result<String, ReportError> {
+    let renderer = foosball_env::render::Renderer::new(2.0);
+    let mut md = String::new();
+    for g in groups.iter().filter(|g| !g.runs[0].is_baseline()) {
+        let run = &g.runs[0];
+        let path = run.dir.join("test/trajectories.bin");
+        if !path.is_file() {
+            continue;
+        }
+        let episodes = crate::run_dir::read_trajectories(&path).map_err(|e| error(&path, e))?;
+        let ret = |k: usize| {
+            episodes[k]
+                .trajectory
+                .rewards
+                .iter()
+                .map(|&r| f64::from(r))
+                .sum::<f64>()
+        };
+        let Some(best) = (0..episodes.len()).max_by(|&a, &b| ret(a).total_cmp(&ret(b))) else {
+            continue;
+        };
+        let worst = (0..episodes.len())
+            .min_by(|&a, &b| ret(a).total_cmp(&ret(b)))
+            .unwrap_or(best);
+        let stem = g.label.replace(['*', ' '], "_");
+        md += &format!("### {} ({})\n\n", g.label, run.name);
+        for (what, k) in [("best", best), ("worst", worst)] {
+            let file = format!("{stem}-{what}.gif");
+            crate::animation::episode_gif(
+                &out.join(&file),
+                &episodes[k].trajectory,
+                &renderer,
+                10,
+                4,
+            )
+            .map_err(|e| error(&out.join(&file), e))?;
+            md += &format!(
+                "{what} test episode {k} (return {:.0}, {} steps): ![{what}]({file})\n\n",
+                ret(k),
+                episodes[k].trajectory.rewards.len()
+            );
+        }
+    }
+    Ok(if md.is_empty() {
+        md
+    } else {
+        format!("# Test episodes\n\n{md}")
+    })
+}
+
 /// Writes `report.md`, `report.json`, `metrics.png` and `curves.png` into `out` for the
 /// results of `paths` (see [`collect`]); returns the markdown.
 pub fn write_report(paths: &[PathBuf], out: &Path) -> Result<String, ReportError> {
@@ -352,6 +409,7 @@ pub fn write_report(paths: &[PathBuf], out: &Path) -> Result<String, ReportError
     );
     md += "\n![test metrics](metrics.png)\n\nBars in column order, dots are seeds. ";
     md += "\n\n![learning curves](curves.png)\n\n";
+    md += &episode_gifs(&groups, out)?;
     md += &claims::markdown(&verdicts);
     if !unfinished.is_empty() {
         md += &format!("\nNot finished (left out): {}\n", unfinished.join(", "));
