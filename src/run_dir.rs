@@ -109,6 +109,20 @@ pub struct RecordedEpisode {
     pub trajectory: crate::evaluation::Trajectory,
 }
 
+impl RecordedEpisode {
+    /// Its undiscounted return.
+    pub fn ret(&self) -> f64 {
+        self.trajectory.rewards.iter().map(|&r| f64::from(r)).sum()
+    }
+}
+
+/// Indices of `episodes` from the highest return to the lowest (ties in index order).
+pub fn by_return(episodes: &[RecordedEpisode]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..episodes.len()).collect();
+    order.sort_by(|&a, &b| episodes[b].ret().total_cmp(&episodes[a].ret()));
+    order
+}
+
 /// Reads a `trajectories.bin` written by [`trajectories_bytes`] (any observation and action
 /// widths); the error says what is wrong with the file (another format or version, cut
 /// short).

@@ -5,7 +5,7 @@ use clap::Parser;
 use foosball_rl::animation::episode_gif;
 use foosball_rl::cli::finish;
 use foosball_rl::env::render::Renderer;
-use foosball_rl::run_dir::{RecordedEpisode, read_trajectories};
+use foosball_rl::run_dir::{RecordedEpisode, by_return, read_trajectories};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -41,16 +41,7 @@ struct Args {
 
 /// Indices of the episodes to draw.
 fn pick(args: &Args, episodes: &[RecordedEpisode]) -> Result<Vec<usize>, String> {
-    let ret = |i: usize| {
-        episodes[i]
-            .trajectory
-            .rewards
-            .iter()
-            .map(|&r| f64::from(r))
-            .sum::<f64>()
-    };
-    let mut by_return: Vec<usize> = (0..episodes.len()).collect();
-    by_return.sort_by(|&a, &b| ret(b).total_cmp(&ret(a)));
+    let by_return = by_return(episodes);
     let picked = match (&args.episodes, args.best, args.worst) {
         (Some(list), _, _) => list.clone(),
         (None, Some(n), _) => by_return.into_iter().take(n).collect(),
@@ -87,11 +78,11 @@ fn run(args: &Args) -> Result<String, String> {
         let t = &episodes[index].trajectory;
         let path = args.out.join(format!("episode-{index}.gif"));
         episode_gif(&path, t, &renderer, args.every, args.delay_cs)?;
-        let ret: f32 = t.rewards.iter().sum();
         written.push(format!(
-            "{} ({} steps, return {ret:.0}, seed {})",
+            "{} ({} steps, return {:.0}, seed {})",
             path.display(),
             t.rewards.len(),
+            episodes[index].ret(),
             episodes[index].seed
         ));
     }

@@ -351,20 +351,10 @@ fn episode_gifs(groups: &[Group], out: &Path) -> Result<String, ReportError> {
             continue;
         }
         let episodes = crate::run_dir::read_trajectories(&path).map_err(|e| error(&path, e))?;
-        let ret = |k: usize| {
-            episodes[k]
-                .trajectory
-                .rewards
-                .iter()
-                .map(|&r| f64::from(r))
-                .sum::<f64>()
-        };
-        let Some(best) = (0..episodes.len()).max_by(|&a, &b| ret(a).total_cmp(&ret(b))) else {
+        let order = crate::run_dir::by_return(&episodes);
+        let (Some(&best), Some(&worst)) = (order.first(), order.last()) else {
             continue;
         };
-        let worst = (0..episodes.len())
-            .min_by(|&a, &b| ret(a).total_cmp(&ret(b)))
-            .unwrap_or(best);
         let stem = g.label.replace(['*', ' '], "_");
         md += &format!("### {} ({})\n\n", g.label, run.name);
         for (what, k) in [("best", best), ("worst", worst)] {
@@ -379,7 +369,7 @@ fn episode_gifs(groups: &[Group], out: &Path) -> Result<String, ReportError> {
             .map_err(|e| error(&out.join(&file), e))?;
             md += &format!(
                 "{what} test episode {k} (return {:.0}, {} steps): ![{what}]({file})\n\n",
-                ret(k),
+                episodes[k].ret(),
                 episodes[k].trajectory.rewards.len()
             );
         }
