@@ -1,8 +1,9 @@
 //! Time per gradient update of SAC, TD3 and PPO (batch 256, foosball sizes: 38-dim
 //! observations, 8-dim actions), and where the time of one 7x3000 update goes.
 //!
-//! `cargo bench -p foosball-algos --bench update_speed -- [--sizes 256x2,3000x7] [--reps N]`
-//! (`RAYON_NUM_THREADS` sets the thread count).
+//! `cargo bench -p foosball-algos --bench update_speed -- [--sizes 64x2,256x2,3000x7] [--reps N]`
+//! (`RAYON_NUM_THREADS` sets the thread count). The figures also go to
+//! `target/bench/update_speed.json` (`sac_update_ms_64x64`, ..., `sac_update_ms_7x3000`).
 
 use burn::module::Module;
 use foosball_algos::agent::{ActMode, Agent, Experience};
@@ -12,6 +13,9 @@ use foosball_nets::{Activation, Adam, AdamConfig, Backend, Device, Mlp, Tensor, 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::time::Instant;
+
+#[path = "../../../benches/figures.rs"]
+mod figures;
 
 /// Large tensors are freed and allocated every step; glibc returns blocks above 32 MiB
 /// to the OS and page-faults them back in each time, which costs more than Adam.
@@ -83,9 +87,26 @@ fn off_policy_update(
     ) / per_sample as f64
 }
 
-fn bench_size(hidden: &[usize], reps: usize, device: &Device) {
+/// A network size in figure names: the widths joined (`64x64`) up to three layers, else
+/// depth x width (`7x3000`).
+fn size_key(hidden: &[usize]) -> String {
+    if hidden.len() <= 3 {
+        hidden
+            .iter()
+            .map(ToString::to_string)
+            .collect::<Vec<_>>()
+            .join("x")
+    } else {
+        format!("{}x{}", hidden.len(), hidden[0])
+    }
+}
+
+/// Times SAC, TD3 and PPO updates (and PPO's act) at `hidden`; returns the figures.
+fn bench_size(hidden: &[usize], reps: usize, device: &Device) -> Vec<(String, f64)> {
     let mut rng = ChaCha8Rng::seed_from_u64(0);
     let label = format!("{}x{}", hidden[0], hidden.len());
+    let key = size_key(hidden);
+    let mut out = Vec::new();
 
     let mut sac = SacConfig::default();
     sac.net.hidden = hidden.to_vec();
@@ -94,6 +115,7 @@ fn bench_size(hidden: &[usize], reps: usize, device: &Device) {
     sac.off_policy.buffer_size = 10_000;
     let t = off_policy_update(&mut Sac::agent(OBS, ACT, sac, 1, device), reps, 1, &mut rng);
     println!("{label:>8}  SAC update  {:>9.1} ms", t * 1e3);
+    out.push((format!("sac_update_ms_{key}"), t * 1e3));
 
     let mut td3 = Td3Config::default();
     td3.net.hidden = hidden.to_vec();
@@ -106,6 +128,7 @@ fn bench_size(hidden: &[usize], reps: usize, device: &Device) {
         "{label:>8}  TD3 update  {:>9.1} ms (mean over a critic-only and a delayed step)",
         t * 1e3
     );
+    out.push((format!("td3_update_ms_{key}"), t * 1e3));
 
     let mut ppo = PpoConfig {
         n_steps: BATCH,
@@ -133,6 +156,9 @@ fn bench_size(hidden: &[usize], reps: usize, device: &Device) {
         t * 1e3,
         act * 1e3
     );
+    out.push((format!("ppo_update_ms_{key}"), t * 1e3));
+    out.push((format!("ppo_act_ms_{key}"), act * 1e3));
+    out
 }
 
 /// Forward+backward, Adam and polyak of one MLP, timed apart.
@@ -174,7 +200,7 @@ fn main() {
             .position(|a| a == flag)
             .map(|i| args[i + 1].clone())
     };
-    let sizes = value("--sizes").unwrap_or_else(|| "256x2,3000x7".into());
+    let sizes = value("--sizes").unwrap_or_else(|| "64x2,256x2,3000x7".into());
     let reps: usize = value("--reps").map_or(3, |r| r.parse().expect("--reps N"));
     let backend =
         value("--backend").map_or_else(|| Backend::default_cpu().unwrap(), |b| b.parse().unwrap());
@@ -183,13 +209,16 @@ fn main() {
         "backend {backend}, {} rayon threads, batch {BATCH}",
         rayon_threads()
     );
+    let mut figures = Vec::new();
     for size in sizes.split(',') {
         let (width, depth) = size.split_once('x').expect("--sizes WIDTHxDEPTH,...");
         let hidden = vec![width.parse::<usize>().unwrap(); depth.parse().unwrap()];
         let reps = if hidden[0] >= 1000 { reps } else { reps * 20 };
         breakdown(&hidden, reps, &device);
-        bench_size(&hidden, reps, &device);
+        figures.extend(bench_size(&hidden, reps, &device));
     }
+    let path = figures::write_figures("update_speed", &figures);
+    println!("figures in {}", path.display());
 }
 
 fn rayon_threads() -> usize {

@@ -2,7 +2,9 @@
 //!
 //! Prints physics steps/s of the bare table, single-env agent steps/s at the default
 //! frame_skip (random actions, auto-reset, resets included), and VecEnv agent steps/s on
-//! 1 and 2 threads. Wall-clock figures: run on an idle machine.
+//! 1 and 2 threads. Wall-clock figures: run on an idle machine. The figures also go to
+//! `target/bench/env_speed.json` (`bare_physics_steps_per_s`, `env_loop_physics_steps_per_s`,
+//! `env_steps_per_s_frame_skip_1`, `vec_env_speedup_2_threads`, ...).
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -12,6 +14,9 @@ use foosball_env::layout::ACTION_DIM;
 use foosball_env::table::{PhysicsParams, Table};
 use foosball_env::{EndReason, Env, EnvRng, FoosballConfig, FoosballEnv, VecEnv};
 use rand::{Rng, SeedableRng};
+
+#[path = "../../../benches/figures.rs"]
+mod figures;
 
 const BUDGET: Duration = Duration::from_secs(3);
 
@@ -47,13 +52,16 @@ fn main() {
     for i in 0..8 {
         table.set_target(i, 3.0, 0.5);
     }
+    let mut out: Vec<(String, f64)> = Vec::new();
     let physics = rate(|| table.step());
+    out.push(("bare_physics_steps_per_s".into(), physics));
     println!("physics steps/s (one table, 1 thread):            {physics:>10.0}");
 
     let build = rate(|| {
         black_box(Table::new(&params, [0.0, 0.0]));
     });
     println!("table builds/s (one reset's world construction):  {build:>10.0}");
+    out.push(("table_builds_per_s".into(), build));
 
     // The default preset (`reference`) acts every physics step; the paper presets every 5.
     for frame_skip in [1, 2, 5, 10] {
@@ -75,6 +83,17 @@ fn main() {
                 stagnant += u64::from(t.info.end == Some(EndReason::Stagnant));
             }
         });
+        out.push((format!("env_steps_per_s_frame_skip_{frame_skip}"), per_s));
+        out.push((
+            format!("env_loop_physics_steps_per_s_frame_skip_{frame_skip}"),
+            per_s * frame_skip as f64,
+        ));
+        if frame_skip == config.frame_skip {
+            out.push((
+                "env_loop_physics_steps_per_s".into(),
+                per_s * frame_skip as f64,
+            ));
+        }
         println!(
             "env steps/s, frame_skip {frame_skip} (random actions, resets incl.): {per_s:>10.0}  ({:.0} physics steps/s, {:.1} steps/episode, {:.0}% of episodes end stagnant)",
             per_s * frame_skip as f64,
@@ -99,9 +118,15 @@ fn main() {
         let per_s = batches * n as f64;
         results.push(per_s);
         println!("VecEnv ({n} envs) env steps/s, {threads} thread(s):       {per_s:>10.0}");
+        out.push((format!("vec_env_steps_per_s_{threads}_threads"), per_s));
     }
     println!(
         "VecEnv speed-up 2 vs 1 threads:                   {:>10.2}x",
         results[1] / results[0]
+    );
+    out.push(("vec_env_speedup_2_threads".into(), results[1] / results[0]));
+    println!(
+        "figures in {}",
+        figures::write_figures("env_speed", &out).display()
     );
 }
