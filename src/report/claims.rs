@@ -10,7 +10,8 @@
 //! | TD3's ball speed is about twice SAC's, SAC's about twice PPO's | the ratio's interval holds 2 |
 //!
 //! "not reproduced" when the interval excludes the claim the other way, "inconclusive"
-//! when it straddles, "not measured" when a group is missing.
+//! when it straddles, "not measured" when a group is missing, "too few seeds" when a group
+//! has a single run (no interval over seeds).
 
 use super::Group;
 use crate::metrics::Estimate;
@@ -87,6 +88,14 @@ pub fn verdicts(groups: &[Group]) -> Vec<Verdict> {
             });
         };
         let over = |g: &Group, k: usize| stats::over_seeds(&g.values(k), mean);
+        // A verdict needs an interval over seeds: two runs at least in every group.
+        let guard = |groups: &[&Group], v: &'static str| {
+            if groups.iter().any(|g| g.runs.len() < 2) {
+                "too few seeds"
+            } else {
+                v
+            }
+        };
         let ratio = |a: &Group, b: &Group, k: usize| {
             stats::ratio_over_seeds(&a.values(k), &b.values(k), mean)
         };
@@ -100,7 +109,7 @@ pub fn verdicts(groups: &[Group]) -> Vec<Verdict> {
                 } else {
                     "not reproduced"
                 };
-                (fmt(&e), v)
+                (fmt(&e), guard(&[s], v))
             }),
         );
         for (name, other) in [("PPO", ppo), ("TD3", td3)] {
@@ -109,7 +118,7 @@ pub fn verdicts(groups: &[Group]) -> Vec<Verdict> {
                 "> 2",
                 sac.zip(other).map(|(s, o)| {
                     let e = ratio(s, o, SCORE_RATE);
-                    (fmt(&e), above(&e, 2.0))
+                    (fmt(&e), guard(&[s, o], above(&e, 2.0)))
                 }),
             );
             push(
@@ -117,7 +126,7 @@ pub fn verdicts(groups: &[Group]) -> Vec<Verdict> {
                 "< 0.215",
                 other.map(|o| {
                     let e = over(o, SCORE_RATE);
-                    (fmt(&e), below(&e, 0.215))
+                    (fmt(&e), guard(&[o], below(&e, 0.215)))
                 }),
             );
         }
@@ -133,7 +142,10 @@ pub fn verdicts(groups: &[Group]) -> Vec<Verdict> {
                 } else {
                     "inconclusive"
                 };
-                (format!("SAC {} vs TD3 {}", fmt(&a), fmt(&b)), v)
+                (
+                    format!("SAC {} vs TD3 {}", fmt(&a), fmt(&b)),
+                    guard(&[s, t], v),
+                )
             }),
         );
         for (claim, a, b) in [
@@ -150,7 +162,7 @@ pub fn verdicts(groups: &[Group]) -> Vec<Verdict> {
                     } else {
                         "not reproduced"
                     };
-                    (fmt(&e), v)
+                    (fmt(&e), guard(&[a, b], v))
                 }),
             );
         }
