@@ -48,23 +48,7 @@ impl ScriptedOpponent {
     /// Slide command in [-1, 1] that puts a man of `rod` (0..4) at `ball_x` (cm, in the
     /// rod's own frame), or as near as the rod's range allows.
     pub fn tracking_slide(rod: usize, ball_x: f32) -> f32 {
-        let spec = &RODS[rod];
-        let r = spec.slide_range;
-        let best = spec
-            .men_x
-            .iter()
-            .map(|&m| (ball_x - m).clamp(-r, r))
-            .min_by(|a, b| {
-                let miss = |s: f32| {
-                    (spec.men_x.iter().map(|&m| (m + s - ball_x).abs()))
-                        .fold(f32::INFINITY, f32::min)
-                };
-                miss(*a)
-                    .total_cmp(&miss(*b))
-                    .then(a.abs().total_cmp(&b.abs()))
-            })
-            .unwrap_or(0.0);
-        best / r
+        man_at(rod, ball_x).0 / RODS[rod].slide_range
     }
 }
 
@@ -77,6 +61,21 @@ impl Opponent for ScriptedOpponent {
         }
         action
     }
+}
+
+/// The slide (cm, within the rod's range) that puts the nearest man of `rod` (0..4) at
+/// `x` (cm, in the rod's own frame), and how far (cm) he stays from it; of equally near
+/// men, the one needing the smaller slide.
+pub fn man_at(rod: usize, x: f32) -> (f32, f32) {
+    let spec = &RODS[rod];
+    spec.men_x
+        .iter()
+        .map(|&m| {
+            let s = (x - m).clamp(-spec.slide_range, spec.slide_range);
+            (s, (m + s - x).abs())
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.abs().total_cmp(&b.0.abs())))
+        .unwrap_or((0.0, f32::INFINITY))
 }
 
 /// The built-in opponent of a kind.
@@ -107,5 +106,17 @@ mod tests {
         // Out of reach: the outermost man goes as far as he can.
         let s = ScriptedOpponent::tracking_slide(0, 33.0);
         assert_eq!(s, 1.0);
+    }
+
+    #[test]
+    fn man_at_reaches_every_x_the_rod_covers() {
+        let (s, miss) = man_at(3, 5.0);
+        assert!(miss < 1e-5 && (s - 5.0).abs() < 1e-5, "{s} {miss}");
+        // Midfield's outer man stands at 23.95: 6.05 of its 7 cm of slide reach x = 30.
+        let (s, miss) = man_at(2, 30.0);
+        assert!((s - 6.05).abs() < 1e-4 && miss < 1e-4, "{s} {miss}");
+        // Beyond the range the nearest man goes as far as he can.
+        let (s, miss) = man_at(2, 33.0);
+        assert!(s == 7.0 && (miss - 2.05).abs() < 1e-4, "{s} {miss}");
     }
 }

@@ -14,7 +14,7 @@ use crate::geometry::{BALL_RADIUS, FIELD_HALF_LENGTH, GOAL_HALF_WIDTH, RODS, foo
 use crate::layout::{
     ACTION_DIM, BALL_POS, OBS_DIM, ROD_ANGLE, ROD_ANGLE_VEL, ROD_SLIDE, action_slide, action_turn,
 };
-use crate::opponent::Opponent;
+use crate::opponent::{Opponent, man_at};
 
 /// Ball centre ahead of a rod's axis (own +y), cm, within which the rod can kick it.
 const KICK_ZONE: (f32, f32) = (-1.5, 6.5);
@@ -94,20 +94,6 @@ fn aim(obs: &[f32; OBS_DIM], ball: (f32, f32)) -> f32 {
     ((best - ball.0).atan2((FIELD_HALF_LENGTH - ball.1).max(1e-3))).clamp(-MAX_AIM, MAX_AIM)
 }
 
-/// Slide (cm) that puts the nearest man of `rod` at `x`, within the rod's range, and how far
-/// he stays from it.
-fn man_at(rod: usize, x: f32) -> (f32, f32) {
-    let spec = &RODS[rod];
-    spec.men_x
-        .iter()
-        .map(|&m| {
-            let s = (x - m).clamp(-spec.slide_range, spec.slide_range);
-            (s, (m + s - x).abs())
-        })
-        .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.abs().total_cmp(&b.0.abs())))
-        .unwrap_or((0.0, f32::INFINITY))
-}
-
 impl Opponent for Kicker {
     fn act(&mut self, obs: &[f32; OBS_DIM], _rng: &mut EnvRng) -> [f32; ACTION_DIM] {
         let ball = (obs[BALL_POS.start], obs[BALL_POS.start + 1]);
@@ -157,17 +143,5 @@ mod tests {
         let x_at_goal = 10.0 * 0.0 + (FIELD_HALF_LENGTH - 10.0) * a.tan();
         assert!(x_at_goal.abs() < GOAL_HALF_WIDTH, "aimed wide: {x_at_goal}");
         assert!(clearance(&obs, (0.0, 10.0), x_at_goal) > 0.0);
-    }
-
-    #[test]
-    fn man_at_reaches_every_x_the_rod_covers() {
-        let (s, miss) = man_at(3, 5.0);
-        assert!(miss < 1e-5 && (s - 5.0).abs() < 1e-5, "{s} {miss}");
-        // Midfield's outer man stands at 23.95: 6.05 of its 7 cm of slide reach x = 30.
-        let (s, miss) = man_at(2, 30.0);
-        assert!((s - 6.05).abs() < 1e-4 && miss < 1e-4, "{s} {miss}");
-        // Beyond the range the nearest man goes as far as he can.
-        let (s, miss) = man_at(2, 33.0);
-        assert!(s == 7.0 && (miss - 2.05).abs() < 1e-4, "{s} {miss}");
     }
 }
