@@ -1,13 +1,19 @@
 //! Scripted policies for yellow, played through the same evaluation as trained agents:
 //! the yardsticks of the report (`evaluate --policy shooter|dribbler|zero|random`).
 
-use crate::evaluation::BatchPolicy;
+use crate::evaluation::{BatchPolicy, play, write_test};
+use crate::metrics::TestMetrics;
+use crate::run_dir::{RunFileError, write_atomic};
+use crate::train::TrainError;
+use foosball_env::FoosballConfig;
 use foosball_env::layout::OBS_DIM;
 use foosball_env::opponent::{RandomOpponent, StaticOpponent};
 use foosball_env::scripted::Kicker;
+use foosball_env::seeding::TEST_ENVS;
 use foosball_env::{EnvRng, Opponent};
 use rand::SeedableRng;
 use serde::{Deserialize, Serialize};
+use std::path::Path;
 
 /// A hand-written controller of yellow's four rods.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
@@ -24,14 +30,6 @@ pub enum ScriptedPolicy {
 }
 
 impl ScriptedPolicy {
-    /// Every policy, in documentation order.
-    pub const ALL: [ScriptedPolicy; 4] = [
-        ScriptedPolicy::Shooter,
-        ScriptedPolicy::Dribbler,
-        ScriptedPolicy::Zero,
-        ScriptedPolicy::Random,
-    ];
-
     /// Lower-case name.
     pub fn name(self) -> &'static str {
         match self {
@@ -60,5 +58,49 @@ impl ScriptedPolicy {
                 })
                 .collect::<Vec<f32>>()
         })
+    }
+}
+
+/// A scripted policy's test on a table (`evaluate --policy`, a sweep's baselines), saved
+/// beside its metrics as `baseline.toml`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Baseline {
+    /// The scripted policy.
+    pub policy: ScriptedPolicy,
+    /// The seed the test seeds derive from.
+    pub seed: u64,
+    /// The table it played on.
+    pub env: FoosballConfig,
+}
+
+impl Baseline {
+    /// Plays `episodes` test episodes (trajectories recorded when `record`) and writes
+    /// `metrics.json`, `metrics.md`, `trajectories.bin` and `baseline.toml` into `dir`.
+    pub fn test(&self, episodes: u32, dir: &Path, record: bool) -> Result<TestMetrics, TrainError> {
+        let mut act = self.policy.batch_policy(self.seed);
+        let played = play(
+            act.as_mut(),
+            &self.env,
+            self.seed,
+            TEST_ENVS,
+            episodes,
+            record,
+        )?;
+        let metrics = write_test(dir, &played)?;
+        self.write(dir)?;
+        Ok(metrics)
+    }
+
+    /// Writes `dir/baseline.toml`.
+    pub fn write(&self, dir: &Path) -> Result<(), RunFileError> {
+        let text = toml::to_string_pretty(self).expect("a baseline always serialises");
+        write_atomic(&dir.join("baseline.toml"), text.as_bytes())
+    }
+
+    /// Reads `dir/baseline.toml`; the error says why it cannot.
+    pub fn read(dir: &Path) -> Result<Self, String> {
+        let text = std::fs::read_to_string(dir.join("baseline.toml")).map_err(|e| e.to_string())?;
+        toml::from_str(&text).map_err(|e| e.message().trim().to_string())
     }
 }

@@ -10,14 +10,10 @@
 
 use crate::checkpoint;
 use crate::config::{Algo, RunConfig};
-use crate::evaluation::PlayedEpisode;
-use crate::evaluation::{play, write_test};
 use crate::metrics::TestMetrics;
-use crate::policy::ScriptedPolicy;
-use crate::report::Baseline;
+use crate::policy::{Baseline, ScriptedPolicy};
 use crate::run_dir::write_atomic;
 use crate::train::{Progress, Start, TrainError, train};
-use foosball_env::seeding::TEST_ENVS;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -94,7 +90,7 @@ pub struct SweepRun {
 impl SweepRun {
     /// Env steps of the whole run.
     pub fn total_steps(&self) -> u64 {
-        u64::from(self.config.protocol.epochs) * self.config.protocol.steps_per_epoch
+        self.config.protocol.total_env_steps()
     }
 }
 
@@ -187,22 +183,10 @@ pub fn baseline(
         seed: spec.seeds[0],
         env: base.env.clone(),
     };
-    let done = std::fs::read_to_string(dir.join("baseline.toml"))
-        .ok()
-        .and_then(|t| toml::from_str::<Baseline>(&t).ok())
-        .is_some_and(|b| b == record && dir.join("metrics.json").is_file());
+    let done =
+        Baseline::read(&dir).is_ok_and(|b| b == record && dir.join("metrics.json").is_file());
     if !done {
-        let mut act = policy.batch_policy(record.seed);
-        let played: Vec<PlayedEpisode> = play(
-            act.as_mut(),
-            &record.env,
-            record.seed,
-            TEST_ENVS,
-            base.protocol.test_episodes,
-            false,
-        )?;
-        write_test(&dir, &played)?;
-        record.write(&dir)?;
+        record.test(base.protocol.test_episodes, &dir, false)?;
     }
     Ok(dir)
 }

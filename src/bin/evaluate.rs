@@ -7,10 +7,8 @@ use foosball_rl::cli::finish;
 use foosball_rl::config::RunConfig;
 use foosball_rl::env::seeding::TEST_ENVS;
 use foosball_rl::env::{FoosballConfig, Preset};
-use foosball_rl::evaluation::deterministic;
-use foosball_rl::evaluation::{play, write_test};
-use foosball_rl::policy::ScriptedPolicy;
-use foosball_rl::report::Baseline;
+use foosball_rl::evaluation::{deterministic, play, write_test};
+use foosball_rl::policy::{Baseline, ScriptedPolicy};
 use foosball_rl::train::TrainError;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -38,7 +36,7 @@ struct Args {
     /// Test a scripted policy instead of a run's networks.
     #[arg(long, value_enum, conflicts_with_all = ["run", "checkpoint"])]
     policy: Option<ScriptedPolicy>,
-    /// With `--policy`: the rule preset of the table (default paper_reachable).
+    /// With `--policy`: the rule preset of the table (default reference).
     #[arg(long, requires = "policy", conflicts_with = "config")]
     preset: Option<Preset>,
     /// With `--policy`: a run configuration whose `[env]` and `protocol.seed` to use.
@@ -114,13 +112,9 @@ fn run_policy(args: &Args, policy: ScriptedPolicy) -> Result<String, String> {
     let out = args.out.clone().unwrap_or_else(|| {
         PathBuf::from(format!("baselines/{}-{}", policy.name(), env.preset.name()))
     });
-    let mut act = policy.batch_policy(seed);
-    let played = play(act.as_mut(), &env, seed, TEST_ENVS, episodes, true)
-        .map_err(|e: TrainError| e.to_string())?;
-    let metrics = write_test(&out, &played).map_err(|e| e.to_string())?;
     let preset = env.preset.name();
-    Baseline { policy, seed, env }
-        .write(&out)
+    let metrics = Baseline { policy, seed, env }
+        .test(episodes, &out, true)
         .map_err(|e| e.to_string())?;
     Ok(format!(
         "{} under preset {preset}\n{}\nresults in {}",

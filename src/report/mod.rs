@@ -11,33 +11,13 @@ pub mod claims;
 
 use crate::config::{ConfigFileError, RunConfig};
 use crate::metrics::{Estimate, TestMetrics};
-use crate::policy::ScriptedPolicy;
-use crate::run_dir::{RunFileError, write_atomic};
+use crate::policy::Baseline;
+use crate::run_dir::write_atomic;
 use crate::run_log::EvaluationRow;
 use crate::stats::{self, iqm, mean};
 use foosball_env::FoosballConfig;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 use std::path::{Path, PathBuf};
-
-/// What `evaluate --policy` tested, saved beside its metrics as `baseline.toml`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Baseline {
-    /// The scripted policy.
-    pub policy: ScriptedPolicy,
-    /// The seed the test seeds derive from.
-    pub seed: u64,
-    /// The table it played on.
-    pub env: FoosballConfig,
-}
-
-impl Baseline {
-    /// Writes `dir/baseline.toml`.
-    pub fn write(&self, dir: &Path) -> Result<(), RunFileError> {
-        let text = toml::to_string_pretty(self).expect("a baseline always serialises");
-        write_atomic(&dir.join("baseline.toml"), text.as_bytes())
-    }
-}
 
 /// A run directory that cannot be reported on, or a report file that could not be
 /// written; names the file.
@@ -138,9 +118,7 @@ impl RunResults {
 
     /// Reads the baseline written by `evaluate --policy` in `dir`.
     pub fn read_baseline(dir: &Path) -> Result<Self, ReportError> {
-        let path = dir.join("baseline.toml");
-        let text = std::fs::read_to_string(&path).map_err(|e| error(&path, e))?;
-        let b: Baseline = toml::from_str(&text).map_err(|e| error(&path, e.message().trim()))?;
+        let b = Baseline::read(dir).map_err(|e| error(&dir.join("baseline.toml"), e))?;
         Ok(Self {
             name: dir_name(dir),
             dir: dir.to_path_buf(),
