@@ -89,7 +89,7 @@ pub fn time_budget(config: &RunConfig) -> Result<TimeBudget, TrainError> {
         }
     }
     let gradient_step_s = spent.as_secs_f64() / f64::from(timed);
-    let steps = u64::from(config.protocol.epochs) * config.protocol.steps_per_epoch;
+    let steps = config.protocol.total_env_steps();
     Ok(TimeBudget {
         env_step_s,
         gradient_step_s,
@@ -112,7 +112,7 @@ pub fn describe(config: &RunConfig, time: &TimeBudget, available: Option<f64>) -
         time.gradient_steps_per_env_step,
         1e3 * time.gradient_step_s,
         indicatif::HumanDuration(Duration::from_secs_f64(time.total_s.min(1e12))),
-        u64::from(config.protocol.epochs) * config.protocol.steps_per_epoch,
+        config.protocol.total_env_steps(),
     );
     if time.total_s > 86_400.0 {
         out += &format!(

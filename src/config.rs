@@ -62,6 +62,13 @@ pub struct Protocol {
     pub backend: Option<Backend>,
 }
 
+impl Protocol {
+    /// Env steps of the whole run: `epochs * steps_per_epoch`.
+    pub fn total_env_steps(&self) -> u64 {
+        u64::from(self.epochs) * self.steps_per_epoch
+    }
+}
+
 impl Default for Protocol {
     fn default() -> Self {
         Self {

@@ -16,10 +16,11 @@
 //! `eval/end_<reason>` there and a
 //! row to `evaluations.csv`; each training episode is a row of `episodes.csv`.
 
-use crate::metrics::TestMetrics;
+use crate::metrics::{TestMetrics, end_shares};
 use crate::run_dir::{RunFileError, append_csv};
 use foosball_algos::{Episode, Metrics};
 use foosball_env::{EndReason, FoosballInfo};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use tensorboard_proto::event::{Event, SessionLog, SessionLog_SessionStatus};
@@ -149,19 +150,18 @@ struct TrainingEpisode {
     end: Option<EndReason>,
 }
 
-/// The share of each end reason among `ends`, as scalars `<prefix>/end_<reason>` (every
-/// reason, zeros included, so the tags are the same in every window).
-fn end_rows(prefix: &str, ends: &[EndReason]) -> Vec<(String, f64)> {
-    EndReason::ALL
-        .iter()
-        .map(|r| {
-            let k = ends.iter().filter(|e| *e == r).count();
-            (
-                format!("{prefix}/end_{}", r.name()),
-                k as f64 / ends.len().max(1) as f64,
-            )
-        })
-        .collect()
+/// End-reason shares ([`crate::metrics::end_shares`]) as scalars `<prefix>/end_<reason>`
+/// (every reason, zeros included, so the tags are the same in every window).
+fn end_rows<'a>(
+    prefix: &'a str,
+    shares: &'a BTreeMap<String, f64>,
+) -> impl Iterator<Item = (String, f64)> + 'a {
+    EndReason::ALL.iter().map(move |r| {
+        (
+            format!("{prefix}/end_{}", r.name()),
+            shares.get(r.name()).copied().unwrap_or(0.0),
+        )
+    })
 }
 
 /// What the training loop writes while it runs.
@@ -270,8 +270,8 @@ impl RunLog {
                 sum(|e| f64::from(u8::from(e.scored))) / n,
             ));
             rows.push(("rollout/episodes".into(), n));
-            let ends: Vec<EndReason> = self.episodes.iter().filter_map(|e| e.end).collect();
-            rows.extend(end_rows("rollout", &ends));
+            let shares = end_shares(self.episodes.iter().filter_map(|e| e.end));
+            rows.extend(end_rows("rollout", &shares));
         }
         for (name, value) in Metrics::mean(&self.updates).0 {
             rows.push((format!("train/{name}"), value));
@@ -315,12 +315,7 @@ impl RunLog {
             .zip(row.values)
             .map(|(name, v)| (format!("eval/{name}"), v))
             .collect();
-        rows.extend(EndReason::ALL.iter().map(|r| {
-            (
-                format!("eval/end_{}", r.name()),
-                m.end_reasons.get(r.name()).copied().unwrap_or(0.0),
-            )
-        }));
+        rows.extend(end_rows("eval", &m.end_reasons));
         self.scalars(env_step, &rows)
     }
 

@@ -195,7 +195,7 @@ pub fn train(
         let n = p.envs;
         let envs = VecEnv::new(foosball_envs(&config.env, n)?, threads)?;
         let mut collector = Collector::with_seeds(envs, &restart_seeds(p.seed, done, n));
-        let total = u64::from(p.epochs) * p.steps_per_epoch;
+        let total = p.total_env_steps();
         let progress = |env_steps, event| Progress {
             env_steps,
             total_steps: total,

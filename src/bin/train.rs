@@ -167,7 +167,8 @@ fn resumed(dir: &Path, threads: Option<usize>) -> Result<RunConfig, String> {
 
 fn main() -> ExitCode {
     let args = Args::parse();
-    let fits = |c: RunConfig| budget::check(&c, budget::available_bytes()).map(|()| c);
+    let available = budget::available_bytes();
+    let fits = |c: RunConfig| budget::check(&c, available).map(|()| c);
     let setup = match &args.resume {
         Some(dir) => resumed(dir, args.threads)
             .and_then(fits)
@@ -184,8 +185,8 @@ fn main() -> ExitCode {
             dir.join("config.toml").display(),
             c.to_toml()
         );
-        println!("{}", budget::describe(&c, &time, budget::available_bytes()));
-        let total = u64::from(c.protocol.epochs) * c.protocol.steps_per_epoch;
+        println!("{}", budget::describe(&c, &time, available));
+        let total = c.protocol.total_env_steps();
         let mut display = Display::new(total);
         let metrics = train(&c, &dir, start, |p| display.show(p)).map_err(|e| e.to_string())?;
         Ok(format!(

@@ -117,8 +117,8 @@ impl std::str::FromStr for Preset {
 
 /// Everything that defines one foosball environment.
 ///
-/// Deserialising starts from the values of the `preset` key (default `paper`) and applies
-/// the keys present on top of them.
+/// Deserialising starts from the values of the `preset` key (default `reference`) and
+/// applies the keys present on top of them.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(remote = "Self", deny_unknown_fields, default)]
 pub struct FoosballConfig {
@@ -126,10 +126,11 @@ pub struct FoosballConfig {
     pub preset: Preset,
     /// Length of one physics step, s (default 0.002, the reference's).
     pub physics_dt: f32,
-    /// Physics steps per agent step (default 5: the agent acts every 10 ms).
+    /// Physics steps per agent step (`reference`: 1, the agent acting every 2 ms; the paper
+    /// presets: 5, every 10 ms).
     pub frame_skip: u32,
-    /// Agent steps after which an episode is truncated (default 4000 = 40 s at the
-    /// default 10 ms agent step, the reference's time limit).
+    /// Agent steps after which an episode is truncated (40 s, the reference's time limit:
+    /// 20,000 steps of 2 ms under `reference`, 4,000 of 10 ms under the paper presets).
     pub max_episode_steps: u32,
     /// Reward shaping.
     pub reward: RewardConfig,

@@ -10,11 +10,9 @@ use std::path::{Path, PathBuf};
 fn temporary(path: &Path) -> PathBuf {
     match path.extension() {
         Some(ext) => {
-            let mut ext = ext.to_owned();
             let mut tmp = std::ffi::OsString::from("tmp.");
-            tmp.push(&ext);
-            ext = tmp;
-            path.with_extension(ext)
+            tmp.push(ext);
+            path.with_extension(tmp)
         }
         None => path.with_extension("tmp"),
     }
