@@ -3,7 +3,9 @@
 //!
 //! `cargo bench -p foosball-algos --bench update_speed -- [--sizes 64x2,256x2,3000x7] [--reps N]`
 //! (`RAYON_NUM_THREADS` sets the thread count). The figures also go to
-//! `target/bench/update_speed.json` (`sac_update_ms_64x64`, ..., `sac_update_ms_7x3000`).
+//! `target/bench/update_speed.json` (`sac_update_ms_64x64`, ..., `sac_update_ms_7x3000`);
+//! `--backend wgpu` (built with `--features wgpu`) times the GPU path and writes
+//! `target/bench/update_speed_wgpu.json`.
 
 use burn::module::Module;
 use foosball_algos::agent::{ActMode, Agent, Experience};
@@ -217,7 +219,12 @@ fn main() {
         breakdown(&hidden, reps, &device);
         figures.extend(bench_size(&hidden, reps, &device));
     }
-    let path = figures::write_figures("update_speed", &figures);
+    let bench = if Some(backend) == Backend::default_cpu().ok() {
+        "update_speed".to_string()
+    } else {
+        format!("update_speed_{backend}")
+    };
+    let path = figures::write_figures(&bench, &figures);
     println!("figures in {}", path.display());
 }
 

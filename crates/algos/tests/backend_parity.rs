@@ -1,0 +1,173 @@
+//! The GPU path computes what the CPU path computes: one SAC, TD3 and PPO update on
+//! wgpu (lavapipe, Mesa's software Vulkan driver, in CI; a real GPU where there is one)
+//! against the same update on flex, from the same seed and the same transitions.
+//!
+//! Compared: the update's losses (they use the pre-update networks, so they differ by
+//! float rounding only) and the deterministic actions on held-out observations after the
+//! update. Kernels sum in a different order on each backend, so parity is to a tolerance,
+//! not bit-for-bit; the tolerances below are ~10x the largest gap measured on lavapipe
+//! and on an H100 (README, "GPU backends"), and each test also checks that the update moved
+//! the actions by much more than the tolerance, so a backend that skipped it would fail.
+//!
+//! `cargo test -p foosball-algos --release --features wgpu --test backend_parity`
+
+use foosball_algos::agent::{ActMode, Agent, Experience, Metrics};
+use foosball_algos::{LrSchedule, Ppo, PpoConfig, Sac, SacConfig, Td3, Td3Config};
+use foosball_nets::{Backend, Device};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+const OBS: usize = 38;
+const ACT: usize = 8;
+const BATCH: usize = 64;
+const HIDDEN: [usize; 2] = [32, 32];
+/// Relative gap allowed between the backends' losses.
+const LOSS_TOLERANCE: f64 = 1e-5;
+/// Absolute gap allowed between the backends' post-update actions (actions lie in [-1, 1]).
+const ACTION_TOLERANCE: f32 = 1e-5;
+
+fn devices() -> (Device, Device) {
+    (
+        Backend::Flex.device().expect("flex is compiled in"),
+        Backend::Wgpu
+            .device()
+            .expect("wgpu is compiled in (this test needs --features wgpu)"),
+    )
+}
+
+/// Feeds `n` transitions whose observations and rewards come from `seed`; actions are the
+/// agent's own exploring actions.
+fn feed(agent: &mut dyn Agent, n: usize, seed: u64) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut obs: Vec<f32> = (0..OBS).map(|_| rng.random_range(-1.0..1.0)).collect();
+    for _ in 0..n {
+        let actions = agent.act(&obs, ActMode::Explore);
+        let next: Vec<f32> = (0..OBS).map(|_| rng.random_range(-1.0..1.0)).collect();
+        agent.observe(&Experience {
+            obs: &obs,
+            actions: &actions,
+            rewards: &[rng.random_range(-1.0..1.0)],
+            next_obs: &next,
+            final_obs: vec![None],
+            terminated: &[rng.random_bool(0.05)],
+            truncated: &[false],
+        });
+        obs = next;
+    }
+}
+
+/// Deterministic actions on 16 held-out observations, flattened.
+fn probe(agent: &mut dyn Agent) -> Vec<f32> {
+    let mut rng = ChaCha8Rng::seed_from_u64(99);
+    (0..16)
+        .flat_map(|_| {
+            let obs: Vec<f32> = (0..OBS).map(|_| rng.random_range(-1.0..1.0)).collect();
+            agent.act(&obs, ActMode::Deterministic)
+        })
+        .collect()
+}
+
+fn max_gap(a: &[f32], b: &[f32]) -> f32 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f32::max)
+}
+
+/// Runs `updates` updates on both agents after feeding them `n` transitions, and checks
+/// losses and post-update actions against the tolerances.
+fn check(name: &str, cpu: &mut dyn Agent, gpu: &mut dyn Agent, n: usize, updates: usize) {
+    let before = probe(cpu);
+    feed(cpu, n, 7);
+    feed(gpu, n, 7);
+    for step in 0..updates {
+        if step > 0 {
+            // One env step per gradient step (train_freq 1) for the off-policy learners.
+            feed(cpu, 1, 100 + step as u64);
+            feed(gpu, 1, 100 + step as u64);
+        }
+        let (Some(Metrics(a)), Some(Metrics(b))) = (cpu.update(1.0), gpu.update(1.0)) else {
+            panic!("{name}: update {step} did not run");
+        };
+        for ((key, x), (_, y)) in a.iter().zip(&b) {
+            if x.is_nan() && y.is_nan() {
+                continue; // TD3's actor loss before its first delayed step
+            }
+            let gap = (x - y).abs() / x.abs().max(1e-3);
+            println!(
+                "{name} update {step} {key}: flex {x:.6} wgpu {y:.6} (relative gap {gap:.2e})"
+            );
+            assert!(
+                gap <= LOSS_TOLERANCE,
+                "{name} {key}: flex {x}, wgpu {y}, relative gap {gap:.2e} > {LOSS_TOLERANCE:e}"
+            );
+        }
+    }
+    let (after_cpu, after_gpu) = (probe(cpu), probe(gpu));
+    let gap = max_gap(&after_cpu, &after_gpu);
+    let moved = max_gap(&before, &after_cpu);
+    println!("{name}: post-update actions gap {gap:.2e}, the update moved them by {moved:.2e}");
+    assert!(
+        gap <= ACTION_TOLERANCE,
+        "{name}: actions differ by {gap:.2e} > {ACTION_TOLERANCE:e}"
+    );
+    assert!(
+        moved >= 10.0 * ACTION_TOLERANCE,
+        "{name}: the update moved the actions by {moved:.2e} only, too little to compare"
+    );
+}
+
+#[test]
+fn sac_update_matches_cpu() {
+    let mut config = SacConfig::default();
+    config.net.hidden = HIDDEN.to_vec();
+    config.net.lr = LrSchedule::Constant(1e-2);
+    config.off_policy.batch_size = BATCH;
+    config.off_policy.learning_starts = BATCH as u64;
+    let (cpu, gpu) = devices();
+    check(
+        "SAC",
+        &mut Sac::agent(OBS, ACT, config.clone(), 3, &cpu),
+        &mut Sac::agent(OBS, ACT, config, 3, &gpu),
+        BATCH + 1,
+        2,
+    );
+}
+
+#[test]
+fn td3_update_matches_cpu() {
+    let mut config = Td3Config::default();
+    config.net.hidden = HIDDEN.to_vec();
+    config.net.lr = LrSchedule::Constant(1e-2);
+    config.off_policy.batch_size = BATCH;
+    config.off_policy.learning_starts = BATCH as u64;
+    let (cpu, gpu) = devices();
+    // Two updates: TD3 moves its actor on every second one.
+    check(
+        "TD3",
+        &mut Td3::agent(OBS, ACT, config.clone(), 3, &cpu),
+        &mut Td3::agent(OBS, ACT, config, 3, &gpu),
+        BATCH + 1,
+        2,
+    );
+}
+
+#[test]
+fn ppo_update_matches_cpu() {
+    let mut config = PpoConfig {
+        n_steps: BATCH,
+        batch_size: BATCH / 2,
+        n_epochs: 1,
+        ..PpoConfig::default()
+    };
+    config.net.hidden = HIDDEN.to_vec();
+    config.net.lr = LrSchedule::Constant(1e-2);
+    let (cpu, gpu) = devices();
+    check(
+        "PPO",
+        &mut Ppo::new(OBS, ACT, config.clone(), 3, &cpu),
+        &mut Ppo::new(OBS, ACT, config, 3, &gpu),
+        BATCH,
+        1,
+    );
+}
