@@ -1,6 +1,6 @@
 //! The learner a run configuration asks for, on the device of its backend.
 
-use crate::config::{Algo, RunConfig};
+use crate::config::{AlgoConfig, RunConfig};
 use crate::train::TrainError;
 use foosball_algos::{Agent, Ppo, Sac, Td3};
 use foosball_env::layout;
@@ -11,28 +11,10 @@ use foosball_nets::{Backend, Device};
 pub fn build_agent(config: &RunConfig, device: &Device) -> Box<dyn Agent + Send> {
     let seed = derive_seed(config.protocol.seed, LEARNER, 0);
     let (o, a) = (layout::OBS_DIM, layout::ACTION_DIM);
-    match config.algo {
-        Algo::Ppo => Box::new(Ppo::new(
-            o,
-            a,
-            config.ppo.clone().expect("filled"),
-            seed,
-            device,
-        )),
-        Algo::Sac => Box::new(Sac::agent(
-            o,
-            a,
-            config.sac.clone().expect("filled"),
-            seed,
-            device,
-        )),
-        Algo::Td3 => Box::new(Td3::agent(
-            o,
-            a,
-            config.td3.clone().expect("filled"),
-            seed,
-            device,
-        )),
+    match &config.algorithm {
+        AlgoConfig::Ppo(c) => Box::new(Ppo::new(o, a, c.clone(), seed, device)),
+        AlgoConfig::Sac(c) => Box::new(Sac::agent(o, a, c.clone(), seed, device)),
+        AlgoConfig::Td3(c) => Box::new(Td3::agent(o, a, c.clone(), seed, device)),
     }
 }
 

@@ -4,9 +4,9 @@
 //! steps timed on a throwaway copy of the learner (a few seconds at most).
 
 use crate::agents::{build_agent, device};
-use crate::config::{Algo, RunConfig};
+use crate::config::{Algo, AlgoConfig, RunConfig};
 use crate::train::TrainError;
-use foosball_algos::{ActMode, Experience};
+use foosball_algos::{ActMode, Experience, SacConfig, Td3Config};
 use foosball_env::layout::{ACTION_DIM, OBS_DIM};
 use foosball_env::{Env, FoosballEnv};
 use std::time::{Duration, Instant};
@@ -28,7 +28,8 @@ pub struct TimeBudget {
 /// Times the env and the learner of `config`: env steps for about 0.3 s, then gradient
 /// steps on a throwaway learner built like the run's (seeded the same, so nothing of the
 /// run's own random streams is used) fed with random transitions: the fastest of two to
-/// ten gradient steps (more while under about 3 s), as the first one warms GPU kernels up.
+/// ten gradient steps (more while those after the first take under about 3 s), as the
+/// first ones warm GPU kernels up.
 pub fn time_budget(config: &RunConfig) -> Result<TimeBudget, TrainError> {
     let mut env =
         FoosballEnv::new(config.env.clone()).map_err(|e| TrainError::Env(e.to_string()))?;
@@ -46,19 +47,15 @@ pub fn time_budget(config: &RunConfig) -> Result<TimeBudget, TrainError> {
     // SAC/TD3 training from their first minibatch on, with a small replay buffer.
     let mut probe = config.clone();
     probe.protocol.envs = 1;
-    let per_env_step = match config.algo {
-        Algo::Ppo => {
-            let c = probe.ppo.as_mut().expect("filled");
+    let per_env_step = match &mut probe.algorithm {
+        AlgoConfig::Ppo(c) => {
             let rollout = (c.n_steps * config.protocol.envs) as f64;
             let per = c.n_epochs as f64 * (rollout / c.batch_size as f64).ceil() / rollout;
             (c.n_steps, c.n_epochs) = (c.batch_size, 1);
             per
         }
-        Algo::Sac | Algo::Td3 => {
-            let c = match config.algo {
-                Algo::Sac => &mut probe.sac.as_mut().expect("filled").off_policy,
-                _ => &mut probe.td3.as_mut().expect("filled").off_policy,
-            };
+        AlgoConfig::Sac(SacConfig { off_policy: c, .. })
+        | AlgoConfig::Td3(Td3Config { off_policy: c, .. }) => {
             let per = c.gradient_steps as f64 / (c.train_freq * config.protocol.envs as u64) as f64;
             c.learning_starts = c.batch_size as u64;
             c.buffer_size = 2 * c.batch_size;
@@ -68,12 +65,15 @@ pub fn time_budget(config: &RunConfig) -> Result<TimeBudget, TrainError> {
     };
     let device = device(config)?;
     let mut agent = build_agent(&probe, &device);
-    // The first gradient step also compiles and tunes GPU kernels (seconds on wgpu, where
-    // later steps take milliseconds), so the estimate is the fastest of at least two steps
-    // (up to ten while under ~3 s).
-    let (mut timed, mut fastest, started) = (0u32, f64::INFINITY, Instant::now());
+    // The first gradient steps also compile and tune GPU kernels (11 s, then 0.7 s on
+    // wgpu, where later steps take 80 ms), so the estimate is the fastest of at least two
+    // steps, up to ten while the steps after the first have taken under ~3 s.
+    let (mut timed, mut fastest) = (0u32, f64::INFINITY);
+    let mut after_first: Option<Instant> = None;
     let (zero, no) = ([0.0_f32], [false]);
-    while timed < 2 || (timed < 10 && started.elapsed() < Duration::from_secs(3)) {
+    while timed < 2
+        || (timed < 10 && after_first.is_none_or(|t| t.elapsed() < Duration::from_secs(3)))
+    {
         let actions = agent.act(&obs, ActMode::Explore);
         agent.observe(&Experience {
             obs: &obs,
@@ -90,6 +90,7 @@ pub fn time_budget(config: &RunConfig) -> Result<TimeBudget, TrainError> {
         if steps > 0 {
             fastest = fastest.min(before.0.elapsed().as_secs_f64() / steps as f64);
             timed += 1;
+            after_first.get_or_insert_with(Instant::now);
         }
     }
     let gradient_step_s = fastest;
@@ -122,7 +123,7 @@ pub fn describe(config: &RunConfig, time: &TimeBudget, available: Option<f64>) -
         out += &format!(
             "\n# that is more than a day: try --hidden 64,64 (the CPU path) or a GPU backend \
              (`backend = \"cuda\"` or \"wgpu\" under [protocol], see README); {}.net.hidden is {:?}",
-            config.algo,
+            config.algo(),
             config.hidden()
         );
     }
@@ -144,20 +145,13 @@ fn mlp_params(input: usize, hidden: &[usize], output: usize) -> f64 {
 pub fn learner_bytes(config: &RunConfig) -> f64 {
     let (o, a, h) = (OBS_DIM, ACTION_DIM, config.hidden());
     let q = mlp_params(o + a, h, 1);
-    let (trained, targets, buffer) = match config.algo {
-        Algo::Ppo => (mlp_params(o, h, a) + mlp_params(o, h, 1), 0.0, 0),
-        Algo::Sac => (
-            mlp_params(o, h, 2 * a) + 2.0 * q,
-            2.0 * q,
-            config.sac.as_ref().map_or(0, |c| c.off_policy.buffer_size),
-        ),
+    let buffer = config.algorithm.off_policy().map_or(0, |c| c.buffer_size);
+    let (trained, targets) = match config.algo() {
+        Algo::Ppo => (mlp_params(o, h, a) + mlp_params(o, h, 1), 0.0),
+        Algo::Sac => (mlp_params(o, h, 2 * a) + 2.0 * q, 2.0 * q),
         Algo::Td3 => {
             let actor = mlp_params(o, h, a);
-            (
-                actor + 2.0 * q,
-                actor + 2.0 * q,
-                config.td3.as_ref().map_or(0, |c| c.off_policy.buffer_size),
-            )
+            (actor + 2.0 * q, actor + 2.0 * q)
         }
     };
     let row = (2 * o + a + 2) as f64;
@@ -182,7 +176,7 @@ pub fn check(config: &RunConfig, available: Option<f64>) -> Result<(), String> {
             "{}.net.hidden = {:?} with its buffers needs about {:.1} GiB (parameters, \
              gradients, Adam moments, targets, replay buffer) but this machine has {:.1} GiB \
              available: choose smaller --hidden or buffer_size",
-            config.algo,
+            config.algo(),
             config.hidden(),
             gib(need),
             gib(have)
@@ -208,7 +202,7 @@ mod tests {
         let e = check(&c, Some(24.0 * (1u64 << 30) as f64)).unwrap_err();
         assert!(e.contains("sac.net.hidden = [100000000, 100000000]"), "{e}");
         assert!(e.contains("GiB available"), "{e}");
-        c.set_hidden(vec![64, 64]);
+        c.algorithm.net_mut().hidden = vec![64, 64];
         // 64x64 SAC: ~0.35 GB, nearly all of it the 1e6-row replay buffer.
         let need = learner_bytes(&c);
         assert!((0.3e9..0.4e9).contains(&need), "{need}");

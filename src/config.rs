@@ -2,7 +2,7 @@
 //! environment and the algorithm's settings. Unknown keys and invalid values are refused
 //! with the file, the line and the dotted key.
 
-use foosball_algos::{PpoConfig, SacConfig, Td3Config};
+use foosball_algos::{NetConfig, OffPolicyConfig, PpoConfig, SacConfig, Td3Config};
 use foosball_env::{ConfigError, FoosballConfig};
 use foosball_nets::Backend;
 use serde::{Deserialize, Serialize};
@@ -85,27 +85,150 @@ impl Default for Protocol {
     }
 }
 
+/// The algorithm a run trains with its settings: the TOML's `algo` and its section.
+#[derive(Clone, Debug, PartialEq)]
+pub enum AlgoConfig {
+    /// `algo = "ppo"` and `[ppo]`.
+    Ppo(PpoConfig),
+    /// `algo = "sac"` and `[sac]`.
+    Sac(SacConfig),
+    /// `algo = "td3"` and `[td3]`.
+    Td3(Td3Config),
+}
+
+impl AlgoConfig {
+    /// `algo`'s default settings.
+    pub fn default_for(algo: Algo) -> Self {
+        match algo {
+            Algo::Ppo => AlgoConfig::Ppo(PpoConfig::default()),
+            Algo::Sac => AlgoConfig::Sac(SacConfig::default()),
+            Algo::Td3 => AlgoConfig::Td3(Td3Config::default()),
+        }
+    }
+
+    /// Which algorithm.
+    pub fn algo(&self) -> Algo {
+        match self {
+            AlgoConfig::Ppo(_) => Algo::Ppo,
+            AlgoConfig::Sac(_) => Algo::Sac,
+            AlgoConfig::Td3(_) => Algo::Td3,
+        }
+    }
+
+    /// The networks' settings.
+    pub fn net(&self) -> &NetConfig {
+        match self {
+            AlgoConfig::Ppo(c) => &c.net,
+            AlgoConfig::Sac(c) => &c.net,
+            AlgoConfig::Td3(c) => &c.net,
+        }
+    }
+
+    /// The networks' settings, to change.
+    pub fn net_mut(&mut self) -> &mut NetConfig {
+        match self {
+            AlgoConfig::Ppo(c) => &mut c.net,
+            AlgoConfig::Sac(c) => &mut c.net,
+            AlgoConfig::Td3(c) => &mut c.net,
+        }
+    }
+
+    /// The replay schedule of SAC and TD3 (`None` for PPO).
+    pub fn off_policy(&self) -> Option<&OffPolicyConfig> {
+        match self {
+            AlgoConfig::Ppo(_) => None,
+            AlgoConfig::Sac(c) => Some(&c.off_policy),
+            AlgoConfig::Td3(c) => Some(&c.off_policy),
+        }
+    }
+
+    /// Rejects out-of-range values; keys are under the algorithm's section.
+    fn validate(&self) -> Result<(), ConfigError> {
+        match self {
+            AlgoConfig::Ppo(c) => c.validate(),
+            AlgoConfig::Sac(c) => c.validate(),
+            AlgoConfig::Td3(c) => c.validate(),
+        }
+        .map_err(|e| e.under(self.algo().name()))
+    }
+}
+
 /// A whole run's settings: `algo`, `[protocol]`, `[env]` and the algorithm's section.
+/// Read and written in the TOML shape below; only the algorithm's own section can exist.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(try_from = "RunConfigFile", into = "RunConfigFile")]
 pub struct RunConfig {
-    /// The algorithm to train.
-    pub algo: Algo,
     /// Epochs, evaluation, test, workers, seed.
-    #[serde(default)]
     pub protocol: Protocol,
     /// The foosball environment.
-    #[serde(default)]
     pub env: FoosballConfig,
-    /// PPO's settings (only with `algo = "ppo"`).
+    /// The algorithm to train and its settings.
+    pub algorithm: AlgoConfig,
+}
+
+/// A run configuration as TOML writes it: `algo` names the algorithm and at most that
+/// algorithm's section is present (absent: its defaults).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RunConfigFile {
+    algo: Algo,
+    #[serde(default)]
+    protocol: Protocol,
+    #[serde(default)]
+    env: FoosballConfig,
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub ppo: Option<PpoConfig>,
-    /// SAC's settings (only with `algo = "sac"`).
+    ppo: Option<PpoConfig>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub sac: Option<SacConfig>,
-    /// TD3's settings (only with `algo = "td3"`).
+    sac: Option<SacConfig>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub td3: Option<Td3Config>,
+    td3: Option<Td3Config>,
+}
+
+impl TryFrom<RunConfigFile> for RunConfig {
+    type Error = ConfigError;
+
+    /// Refuses a section of another algorithm than `algo`.
+    fn try_from(f: RunConfigFile) -> Result<Self, ConfigError> {
+        let other = |name: &str| {
+            ConfigError::new(
+                name,
+                format!("section for another algorithm (algo = \"{}\")", f.algo),
+            )
+        };
+        let algorithm = match (f.algo, f.ppo, f.sac, f.td3) {
+            (Algo::Ppo, c, None, None) => AlgoConfig::Ppo(c.unwrap_or_default()),
+            (Algo::Sac, None, c, None) => AlgoConfig::Sac(c.unwrap_or_default()),
+            (Algo::Td3, None, None, c) => AlgoConfig::Td3(c.unwrap_or_default()),
+            (_, Some(_), _, _) if f.algo != Algo::Ppo => return Err(other("ppo")),
+            (_, _, Some(_), _) if f.algo != Algo::Sac => return Err(other("sac")),
+            _ => return Err(other("td3")),
+        };
+        Ok(RunConfig {
+            protocol: f.protocol,
+            env: f.env,
+            algorithm,
+        })
+    }
+}
+
+impl From<RunConfig> for RunConfigFile {
+    fn from(c: RunConfig) -> Self {
+        let algo = c.algorithm.algo();
+        let (mut ppo, mut sac, mut td3) = (None, None, None);
+        match c.algorithm {
+            AlgoConfig::Ppo(a) => ppo = Some(a),
+            AlgoConfig::Sac(a) => sac = Some(a),
+            AlgoConfig::Td3(a) => td3 = Some(a),
+        }
+        RunConfigFile {
+            algo,
+            protocol: c.protocol,
+            env: c.env,
+            ppo,
+            sac,
+            td3,
+        }
+    }
 }
 
 /// Command-line overrides of a run configuration (`None`: keep the file's value).
@@ -187,12 +310,12 @@ impl RunConfig {
     ) -> Result<Self, String> {
         let mut c = Self::load(path).map_err(|e| e.to_string())?;
         if let Some(algo) = algo
-            && algo != c.algo
+            && algo != c.algo()
         {
             return Err(format!(
                 "--algo {algo} but {} has algo = \"{}\"",
                 path.display(),
-                c.algo
+                c.algo()
             ));
         }
         let (o, p) = (overrides, &mut c.protocol);
@@ -202,7 +325,7 @@ impl RunConfig {
         p.envs = o.envs.unwrap_or(p.envs);
         p.threads = o.threads.unwrap_or(p.threads);
         if let Some(hidden) = &o.hidden {
-            c.set_hidden(hidden.clone());
+            c.algorithm.net_mut().hidden = hidden.clone();
         }
         if let Some(env) = &o.env {
             c.env = env.clone();
@@ -231,18 +354,19 @@ impl RunConfig {
 
     /// Parses and checks TOML `text`; `path` names it in errors.
     pub fn from_toml(text: &str, path: &Path) -> Result<Self, ConfigFileError> {
-        let mut config: RunConfig = toml::from_str(text).map_err(|e| ConfigFileError::Parse {
+        let file: RunConfigFile = toml::from_str(text).map_err(|e| ConfigFileError::Parse {
             path: path.to_path_buf(),
             line: e.span().map_or(1, |s| line_at(text, s.start)),
             message: e.message().trim().to_string(),
         })?;
-        config.fill_algo_section();
-        config.validate().map_err(|e| ConfigFileError::Invalid {
+        let invalid = |e: ConfigError| ConfigFileError::Invalid {
             path: path.to_path_buf(),
             line: line_of_key(text, &e.key),
             key: e.key,
             message: e.message,
-        })?;
+        };
+        let config = RunConfig::try_from(file).map_err(invalid)?;
+        config.validate().map_err(invalid)?;
         Ok(config)
     }
 
@@ -252,15 +376,7 @@ impl RunConfig {
         toml::to_string(self).expect("a run config always serialises")
     }
 
-    fn fill_algo_section(&mut self) {
-        match self.algo {
-            Algo::Ppo => self.ppo = Some(self.ppo.take().unwrap_or_default()),
-            Algo::Sac => self.sac = Some(self.sac.take().unwrap_or_default()),
-            Algo::Td3 => self.td3 = Some(self.td3.take().unwrap_or_default()),
-        }
-    }
-
-    /// Rejects out-of-range values and sections of another algorithm.
+    /// Rejects out-of-range values, naming the dotted key.
     pub fn validate(&self) -> Result<(), ConfigError> {
         let p = &self.protocol;
         let positive = |ok: bool, key: &str| {
@@ -288,50 +404,17 @@ impl RunConfig {
             ));
         }
         self.env.validate().map_err(|e| e.under("env"))?;
-        for (name, present) in [
-            ("ppo", self.ppo.is_some()),
-            ("sac", self.sac.is_some()),
-            ("td3", self.td3.is_some()),
-        ] {
-            if present && name != self.algo.name() {
-                return Err(ConfigError::new(
-                    name,
-                    format!("section for another algorithm (algo = \"{}\")", self.algo),
-                ));
-            }
-        }
-        match self.algo {
-            Algo::Ppo => self
-                .ppo
-                .as_ref()
-                .map_or(Ok(()), |c| c.validate().map_err(|e| e.under("ppo"))),
-            Algo::Sac => self
-                .sac
-                .as_ref()
-                .map_or(Ok(()), |c| c.validate().map_err(|e| e.under("sac"))),
-            Algo::Td3 => self
-                .td3
-                .as_ref()
-                .map_or(Ok(()), |c| c.validate().map_err(|e| e.under("td3"))),
-        }
+        self.algorithm.validate()
+    }
+
+    /// The algorithm to train.
+    pub fn algo(&self) -> Algo {
+        self.algorithm.algo()
     }
 
     /// The hidden widths of the algorithm's networks.
     pub fn hidden(&self) -> &[usize] {
-        match self.algo {
-            Algo::Ppo => &self.ppo.as_ref().expect("filled").net.hidden,
-            Algo::Sac => &self.sac.as_ref().expect("filled").net.hidden,
-            Algo::Td3 => &self.td3.as_ref().expect("filled").net.hidden,
-        }
-    }
-
-    /// Sets the hidden widths of the algorithm's networks.
-    pub fn set_hidden(&mut self, hidden: Vec<usize>) {
-        match self.algo {
-            Algo::Ppo => self.ppo.as_mut().expect("filled").net.hidden = hidden,
-            Algo::Sac => self.sac.as_mut().expect("filled").net.hidden = hidden,
-            Algo::Td3 => self.td3.as_mut().expect("filled").net.hidden = hidden,
-        }
+        &self.algorithm.net().hidden
     }
 }
 

@@ -128,7 +128,7 @@ impl SweepSpec {
             for base in &self.runs {
                 let mut config = base.clone();
                 config.protocol.seed = seed;
-                let dir = out.join(Self::run_name(config.algo, seed));
+                let dir = out.join(Self::run_name(config.algo(), seed));
                 let saved = RunConfig::load_run(&dir).ok();
                 let same = saved.as_ref().is_some_and(|s| same_run(s, &config));
                 if saved.is_some() && !same && !force {

@@ -1,7 +1,7 @@
 //! `configs/*.toml` hold the paper's protocol, and bad files are refused with the file,
 //! the line and the key at fault.
 
-use foosball_rl::config::{Algo, ConfigFileError, RunConfig};
+use foosball_rl::config::{Algo, AlgoConfig, ConfigFileError, RunConfig};
 use std::path::{Path, PathBuf};
 
 fn config_path(algo: Algo) -> PathBuf {
@@ -12,7 +12,7 @@ fn config_path(algo: Algo) -> PathBuf {
 fn the_shipped_configs_hold_the_papers_protocol() {
     for algo in [Algo::Ppo, Algo::Sac, Algo::Td3] {
         let c = RunConfig::load(&config_path(algo)).unwrap();
-        assert_eq!(c.algo, algo);
+        assert_eq!(c.algo(), algo);
         assert_eq!(c.hidden(), &[3000; 7]);
         let p = &c.protocol;
         assert_eq!(
@@ -20,15 +20,13 @@ fn the_shipped_configs_hold_the_papers_protocol() {
             (15, 100_000, 3_000)
         );
         assert_eq!((p.eval_episodes, p.test_episodes), (10, 1_000));
-        let (net, gamma) = match algo {
-            Algo::Ppo => (&c.ppo.as_ref().unwrap().net, c.ppo.as_ref().unwrap().gamma),
-            Algo::Sac => {
-                let s = c.sac.as_ref().unwrap();
+        let (net, gamma) = match &c.algorithm {
+            AlgoConfig::Ppo(p) => (&p.net, p.gamma),
+            AlgoConfig::Sac(s) => {
                 assert_eq!(s.off_policy.buffer_size, 1_000_000);
                 (&s.net, s.off_policy.gamma)
             }
-            Algo::Td3 => {
-                let t = c.td3.as_ref().unwrap();
+            AlgoConfig::Td3(t) => {
                 assert_eq!(t.off_policy.buffer_size, 1_000_000);
                 (&t.net, t.off_policy.gamma)
             }

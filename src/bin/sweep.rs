@@ -206,7 +206,7 @@ fn run(args: &Args) -> Result<String, String> {
                     if run.start.is_none() {
                         continue;
                     }
-                    let name = SweepSpec::run_name(run.config.algo, run.config.protocol.seed);
+                    let name = SweepSpec::run_name(run.config.algo(), run.config.protocol.seed);
                     let result = train_run(run, |p| {
                         overall.lock().expect("progress lock").update(&name, i, p)
                     });

@@ -80,7 +80,7 @@ fn run_dir(args: &Args, c: &RunConfig) -> Result<PathBuf, String> {
     let dir = args
         .out
         .clone()
-        .unwrap_or_else(|| Path::new("runs").join(format!("{}-seed{}", c.algo, c.protocol.seed)));
+        .unwrap_or_else(|| Path::new("runs").join(format!("{}-seed{}", c.algo(), c.protocol.seed)));
     if dir.join("config.toml").exists() && !args.force {
         return Err(format!(
             "{} already holds a run: pass --force to overwrite it or choose another --out",

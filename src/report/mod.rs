@@ -108,7 +108,7 @@ impl RunResults {
         Ok(Self {
             name: dir_name(dir),
             dir: dir.to_path_buf(),
-            player: config.algo.to_string(),
+            player: config.algo().to_string(),
             preset: preset_label(&config.env),
             hidden: config.hidden().to_vec(),
             metrics: read_metrics(&dir.join("test/metrics.json"))?,
