@@ -12,7 +12,9 @@
 //! `cargo test -p foosball-algos --release --features wgpu --test backend_parity`
 
 use foosball_algos::agent::{ActMode, Agent, Experience, Metrics};
-use foosball_algos::{LrSchedule, Ppo, PpoConfig, Sac, SacConfig, Td3, Td3Config};
+use foosball_algos::{
+    LrSchedule, NetConfig, OffPolicyConfig, Ppo, PpoConfig, Sac, SacConfig, Td3, Td3Config,
+};
 use foosball_nets::{Backend, Device};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -65,6 +67,17 @@ fn probe(agent: &mut dyn Agent) -> Vec<f32> {
             agent.act(&obs, ActMode::Deterministic)
         })
         .collect()
+}
+
+/// Small networks with a large step size, so that one update visibly moves the actions;
+/// replay batches of [`BATCH`] rows from the first [`BATCH`] transitions on.
+fn shrink(net: &mut NetConfig, off_policy: Option<&mut OffPolicyConfig>) {
+    net.hidden = HIDDEN.to_vec();
+    net.lr = LrSchedule::Constant(1e-2);
+    if let Some(o) = off_policy {
+        o.batch_size = BATCH;
+        o.learning_starts = BATCH as u64;
+    }
 }
 
 fn max_gap(a: &[f32], b: &[f32]) -> f32 {
@@ -120,10 +133,7 @@ fn check(name: &str, cpu: &mut dyn Agent, gpu: &mut dyn Agent, n: usize, updates
 #[test]
 fn sac_update_matches_cpu() {
     let mut config = SacConfig::default();
-    config.net.hidden = HIDDEN.to_vec();
-    config.net.lr = LrSchedule::Constant(1e-2);
-    config.off_policy.batch_size = BATCH;
-    config.off_policy.learning_starts = BATCH as u64;
+    shrink(&mut config.net, Some(&mut config.off_policy));
     let (cpu, gpu) = devices();
     check(
         "SAC",
@@ -137,10 +147,7 @@ fn sac_update_matches_cpu() {
 #[test]
 fn td3_update_matches_cpu() {
     let mut config = Td3Config::default();
-    config.net.hidden = HIDDEN.to_vec();
-    config.net.lr = LrSchedule::Constant(1e-2);
-    config.off_policy.batch_size = BATCH;
-    config.off_policy.learning_starts = BATCH as u64;
+    shrink(&mut config.net, Some(&mut config.off_policy));
     let (cpu, gpu) = devices();
     // Two updates: TD3 moves its actor on every second one.
     check(
@@ -160,8 +167,7 @@ fn ppo_update_matches_cpu() {
         n_epochs: 1,
         ..PpoConfig::default()
     };
-    config.net.hidden = HIDDEN.to_vec();
-    config.net.lr = LrSchedule::Constant(1e-2);
+    shrink(&mut config.net, None);
     let (cpu, gpu) = devices();
     check(
         "PPO",
