@@ -6,6 +6,7 @@ use foosball_algos::{NetConfig, OffPolicyConfig, PpoConfig, SacConfig, Td3Config
 use foosball_env::{ConfigError, FoosballConfig};
 use foosball_nets::Backend;
 use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
@@ -354,6 +355,7 @@ impl RunConfig {
 
     /// Parses and checks TOML `text`; `path` names it in errors.
     pub fn from_toml(text: &str, path: &Path) -> Result<Self, ConfigFileError> {
+        let text = &*migrate_legacy_keys(text);
         let file: RunConfigFile = toml::from_str(text).map_err(|e| ConfigFileError::Parse {
             path: path.to_path_buf(),
             line: e.span().map_or(1, |s| line_at(text, s.start)),
@@ -415,6 +417,49 @@ impl RunConfig {
     /// The hidden widths of the algorithm's networks.
     pub fn hidden(&self) -> &[usize] {
         &self.algorithm.net().hidden
+    }
+}
+
+/// Rewrites keys of earlier releases in a run or sweep file to today's shape; `text`
+/// itself when it has none (so that errors keep pointing at its lines).
+///
+/// - `[sac.off_policy].gamma` and `[td3.off_policy].gamma` (before the discount moved to
+///   `[sac].gamma` and `[td3].gamma`, the shape of `[ppo].gamma`).
+pub(crate) fn migrate_legacy_keys(text: &str) -> Cow<'_, str> {
+    fn migrate(table: &mut toml::Table) -> bool {
+        let mut moved = false;
+        for (key, value) in table.iter_mut() {
+            match value {
+                toml::Value::Table(t) => {
+                    if matches!(key.as_str(), "sac" | "td3") && !t.contains_key("gamma") {
+                        let gamma = t
+                            .get_mut("off_policy")
+                            .and_then(toml::Value::as_table_mut)
+                            .and_then(|o| o.remove("gamma"));
+                        if let Some(g) = gamma {
+                            t.insert("gamma".into(), g);
+                            moved = true;
+                        }
+                    }
+                    moved |= migrate(t);
+                }
+                toml::Value::Array(items) => {
+                    for t in items.iter_mut().filter_map(toml::Value::as_table_mut) {
+                        moved |= migrate(t);
+                    }
+                }
+                _ => {}
+            }
+        }
+        moved
+    }
+    let Ok(mut table) = text.parse::<toml::Table>() else {
+        return Cow::Borrowed(text);
+    };
+    if migrate(&mut table) {
+        Cow::Owned(toml::to_string(&table).expect("a parsed table serialises"))
+    } else {
+        Cow::Borrowed(text)
     }
 }
 

@@ -9,7 +9,7 @@
 //! then running.
 
 use crate::checkpoint;
-use crate::config::{Algo, RunConfig};
+use crate::config::{Algo, RunConfig, migrate_legacy_keys};
 use crate::metrics::TestMetrics;
 use crate::policy::{Baseline, ScriptedPolicy};
 use crate::run_dir::write_atomic;
@@ -106,7 +106,10 @@ impl SweepSpec {
         let path = out.join("sweep.toml");
         if let Ok(old) = std::fs::read_to_string(&path)
             && !force
-            && toml::from_str::<SweepSpec>(&old).ok().as_ref() != Some(self)
+            && toml::from_str::<SweepSpec>(&migrate_legacy_keys(&old))
+                .ok()
+                .as_ref()
+                != Some(self)
         {
             return Err(SweepError::Other(out.to_path_buf()));
         }

@@ -24,11 +24,11 @@ fn the_shipped_configs_hold_the_papers_protocol() {
             AlgoConfig::Ppo(p) => (&p.net, p.gamma),
             AlgoConfig::Sac(s) => {
                 assert_eq!(s.off_policy.buffer_size, 1_000_000);
-                (&s.net, s.off_policy.gamma)
+                (&s.net, s.gamma)
             }
             AlgoConfig::Td3(t) => {
                 assert_eq!(t.off_policy.buffer_size, 1_000_000);
-                (&t.net, t.off_policy.gamma)
+                (&t.net, t.gamma)
             }
         };
         assert_eq!(net.lr.at(1.0), 3e-4);
@@ -76,4 +76,31 @@ fn malformed_files_and_wrong_sections_are_refused() {
     let missing = RunConfig::load(Path::new("no/such.toml")).unwrap_err();
     assert!(matches!(missing, ConfigFileError::Read { .. }));
     assert!(missing.to_string().contains("no/such.toml"));
+}
+
+#[test]
+fn earlier_files_with_gamma_under_off_policy_still_read() {
+    for (algo, other) in [("sac", 0.95), ("td3", 0.9)] {
+        let text = format!("algo = \"{algo}\"\n[{algo}.off_policy]\ngamma = {other}\ntau = 0.01\n");
+        let c = RunConfig::from_toml(&text, Path::new("old.toml")).unwrap();
+        let (gamma, tau) = match &c.algorithm {
+            AlgoConfig::Sac(s) => (s.gamma, s.off_policy.tau),
+            AlgoConfig::Td3(t) => (t.gamma, t.off_policy.tau),
+            AlgoConfig::Ppo(_) => unreachable!("{algo}"),
+        };
+        assert_eq!((gamma, tau), (other as f32, 0.01));
+        // Saved again, the discount sits in the algorithm's own section.
+        let saved = c.to_toml();
+        assert!(
+            saved.contains(&format!("[{algo}]\ngamma = {other}")),
+            "{saved}"
+        );
+        assert_eq!(
+            RunConfig::from_toml(&saved, Path::new("new.toml")).unwrap(),
+            c
+        );
+    }
+    // A file of today's shape with the key in both places is refused at the old one.
+    let e = error("algo = \"sac\"\n[sac]\ngamma = 0.9\n[sac.off_policy]\ngamma = 0.9\n");
+    assert!(e.contains("bad.toml:5") && e.contains("gamma"), "{e}");
 }

@@ -24,7 +24,6 @@ fn evaluate(agent: &mut dyn Agent) -> f64 {
         .map(|k| {
             play_episode(agent, &mut env, derive_seed(SEED, EVAL_ENVS, k))
                 .unwrap()
-                .0
                 .ret
         })
         .sum();

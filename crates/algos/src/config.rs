@@ -17,6 +17,14 @@ pub(crate) fn ensure(ok: bool, key: &str, message: &str) -> Result<(), ConfigErr
     }
 }
 
+/// The discount factor every algorithm starts from (Stable-Baselines3's).
+pub const DEFAULT_GAMMA: f32 = 0.99;
+
+/// Checks a discount factor: `[0, 1]`.
+pub(crate) fn check_gamma(gamma: f32) -> Result<(), ConfigError> {
+    ensure((0.0..=1.0).contains(&gamma), "gamma", "must be in [0, 1]")
+}
+
 /// The networks of an algorithm (every actor and critic shares the hidden sizes) and
 /// their Adam optimisers.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -104,8 +112,6 @@ pub struct OffPolicyConfig {
     pub batch_size: usize,
     /// Polyak coefficient of the target networks.
     pub tau: f32,
-    /// Discount factor.
-    pub gamma: f32,
     /// Vec-env steps between training rounds.
     pub train_freq: u64,
     /// Gradient steps per training round.
@@ -119,7 +125,6 @@ impl Default for OffPolicyConfig {
             learning_starts: 100,
             batch_size: 256,
             tau: 0.005,
-            gamma: 0.99,
             train_freq: 1,
             gradient_steps: 1,
         }
@@ -135,11 +140,6 @@ impl OffPolicyConfig {
             self.tau > 0.0 && self.tau <= 1.0,
             "tau",
             "must be in (0, 1]",
-        )?;
-        ensure(
-            (0.0..=1.0).contains(&self.gamma),
-            "gamma",
-            "must be in [0, 1]",
         )?;
         ensure(self.train_freq > 0, "train_freq", "must be positive")?;
         ensure(

@@ -22,7 +22,9 @@ pub use agent::{ActMode, Agent, AgentError, Experience, Metrics};
 pub use config::{ConfigError, NetConfig, OffPolicyConfig};
 pub use ppo::{Ppo, PpoConfig};
 pub use replay::{ReplayBatch, ReplayBuffer};
-pub use rollout::{Collector, Episode, play_episode};
+pub use rollout::{
+    BatchPolicy, Collector, Episode, EpisodeLog, deterministic, play_deterministic, play_episode,
+};
 pub use sac::{Sac, SacAgent, SacConfig};
 pub use schedule::LrSchedule;
 pub use td3::{Td3, Td3Agent, Td3Config};

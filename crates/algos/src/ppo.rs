@@ -8,7 +8,7 @@
 //! `ratio = exp(log pi(a|s) - log pi_old(a|s))`, advantages normalised per minibatch.
 
 use crate::agent::{ActMode, Agent, AgentError, Experience, Metrics};
-use crate::config::{ConfigError, NetConfig, ensure};
+use crate::config::{ConfigError, DEFAULT_GAMMA, NetConfig, check_gamma, ensure};
 use crate::rollout_buffer::{RolloutBuffer, gae};
 use crate::schedule::LrSchedule;
 use crate::tensors::{host, matrix, mean, standard_normal, vector};
@@ -67,7 +67,7 @@ impl Default for PpoConfig {
             n_steps: 2048,
             batch_size: 64,
             n_epochs: 10,
-            gamma: 0.99,
+            gamma: DEFAULT_GAMMA,
             gae_lambda: 0.95,
             clip_range: 0.2,
             ent_coef: 0.0,
@@ -85,11 +85,7 @@ impl PpoConfig {
         ensure(self.n_steps > 0, "n_steps", "must be positive")?;
         ensure(self.batch_size > 1, "batch_size", "must be at least 2")?;
         ensure(self.n_epochs > 0, "n_epochs", "must be positive")?;
-        ensure(
-            (0.0..=1.0).contains(&self.gamma),
-            "gamma",
-            "must be in [0, 1]",
-        )?;
+        check_gamma(self.gamma)?;
         ensure(
             (0.0..=1.0).contains(&self.gae_lambda),
             "gae_lambda",

@@ -2,10 +2,11 @@
 //! evaluation episodes.
 
 use crate::agent::{ActMode, Agent, Experience, Metrics};
-use foosball_env::{Env, EnvError, VecEnv, VecEnvError};
+use foosball_env::{Env, EnvError, Transition, VecEnv, VecEnvError};
+use rayon::prelude::*;
 
 /// One finished episode.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Episode {
     /// Undiscounted sum of rewards.
     pub ret: f64,
@@ -109,23 +110,124 @@ impl<E: Env> Collector<E> {
     }
 }
 
-/// Plays one deterministic episode of `env` from `seed` and returns it with the last
-/// step's info.
+/// A policy acting on a batch: observations `[n, obs_dim]` in, actions `[n, action_dim]`
+/// out (a trained agent's deterministic action, or a scripted controller).
+pub type BatchPolicy<'a> = dyn FnMut(&[f32]) -> Vec<f32> + 'a;
+
+/// An agent's deterministic action as a [`BatchPolicy`].
+pub fn deterministic(agent: &mut dyn Agent) -> impl FnMut(&[f32]) -> Vec<f32> + '_ {
+    move |obs| agent.act(obs, ActMode::Deterministic)
+}
+
+/// What an episode leaves behind, folded from its steps.
+pub trait EpisodeLog<I>: Send {
+    /// One step: the observation acted on, the action taken and what followed.
+    fn record(&mut self, obs: &[f32], action: &[f32], transition: &Transition<I>);
+}
+
+impl<I> EpisodeLog<I> for Episode {
+    fn record(&mut self, _: &[f32], _: &[f32], t: &Transition<I>) {
+        self.ret += f64::from(t.reward);
+        self.len += 1;
+    }
+}
+
+/// An episode in progress in one env: its seed's index, the observation to act on, room
+/// for the next one, and its log.
+struct Slot<L> {
+    index: usize,
+    obs: Vec<f32>,
+    next_obs: Vec<f32>,
+    log: L,
+}
+
+/// Plays one episode per seed with `policy`, `envs.len()` side by side (the policy runs
+/// once per step for all of them, the envs step in parallel), and returns their logs
+/// (`new_log(seed)` starts each) in seed order. An env takes the next seed as soon as
+/// its episode ends. The number of envs is part of an evaluation protocol: a batch of
+/// another size may round the networks' outputs differently in the last bit.
+pub fn play_deterministic<E: Env, L: EpisodeLog<E::Info>>(
+    policy: &mut BatchPolicy<'_>,
+    envs: &mut [E],
+    seeds: &[u64],
+    new_log: impl Fn(u64) -> L,
+) -> Result<Vec<L>, EnvError> {
+    assert!(!envs.is_empty() || seeds.is_empty(), "episodes need an env");
+    let action_dim = envs.first().map_or(1, Env::action_dim);
+    let start = |env: &mut E, index: usize| {
+        let mut obs = vec![0.0; env.obs_dim()];
+        env.reset_into(Some(seeds[index]), &mut obs);
+        Slot {
+            index,
+            next_obs: vec![0.0; obs.len()],
+            obs,
+            log: new_log(seeds[index]),
+        }
+    };
+    let mut next = 0;
+    let mut slots: Vec<Option<Slot<L>>> = envs
+        .iter_mut()
+        .map(|env| {
+            (next < seeds.len()).then(|| {
+                next += 1;
+                start(env, next - 1)
+            })
+        })
+        .collect();
+    let mut done: Vec<Option<L>> = (0..seeds.len()).map(|_| None).collect();
+    while slots.iter().any(Option::is_some) {
+        let batch: Vec<f32> = slots
+            .iter()
+            .flatten()
+            .flat_map(|s| s.obs.iter().copied())
+            .collect();
+        let actions = policy(&batch);
+        let mut rows = actions.chunks(action_dim);
+        let work: Vec<(&mut E, &mut Slot<L>, &[f32])> = envs
+            .iter_mut()
+            .zip(slots.iter_mut())
+            .filter_map(|(env, slot)| slot.as_mut().map(|s| (env, s)))
+            .map(|(env, s)| (env, s, rows.next().expect("one action row per live slot")))
+            .collect();
+        let ended: Vec<Result<bool, EnvError>> = work
+            .into_par_iter()
+            .map(|(env, slot, action)| {
+                let t = env.step_into(action, &mut slot.next_obs)?;
+                slot.log.record(&slot.obs, action, &t);
+                std::mem::swap(&mut slot.obs, &mut slot.next_obs);
+                Ok(t.done())
+            })
+            .collect();
+        let mut ended = ended.into_iter();
+        for (env, slot) in envs.iter_mut().zip(slots.iter_mut()) {
+            if slot.is_none() || !ended.next().expect("one result per live slot")? {
+                continue;
+            }
+            let s = slot.take().expect("live slot");
+            done[s.index] = Some(s.log);
+            if next < seeds.len() {
+                *slot = Some(start(env, next));
+                next += 1;
+            }
+        }
+    }
+    Ok(done
+        .into_iter()
+        .map(|e| e.expect("every seed played"))
+        .collect())
+}
+
+/// Plays one deterministic episode of `env` from `seed`.
 pub fn play_episode<E: Env>(
     agent: &mut dyn Agent,
     env: &mut E,
     seed: u64,
-) -> Result<(Episode, E::Info), EnvError> {
-    let mut obs = vec![0.0; env.obs_dim()];
-    env.reset_into(Some(seed), &mut obs);
-    let mut episode = Episode { ret: 0.0, len: 0 };
-    loop {
-        let action = agent.act(&obs, ActMode::Deterministic);
-        let t = env.step_into(&action, &mut obs)?;
-        episode.ret += f64::from(t.reward);
-        episode.len += 1;
-        if t.done() {
-            return Ok((episode, t.info));
-        }
-    }
+) -> Result<Episode, EnvError> {
+    let mut episodes = play_deterministic(
+        &mut deterministic(agent),
+        std::slice::from_mut(env),
+        &[seed],
+        |_| Episode::default(),
+    )?;
+    Ok(episodes.pop().expect("one seed, one episode"))
 }

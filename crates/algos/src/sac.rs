@@ -10,7 +10,7 @@
 //! 5. targets: `theta' <- tau theta + (1 - tau) theta'` every `target_update_interval` steps.
 
 use crate::agent::{ActMode, AgentError, Metrics};
-use crate::config::{ConfigError, NetConfig, OffPolicyConfig, ensure};
+use crate::config::{ConfigError, DEFAULT_GAMMA, NetConfig, OffPolicyConfig, check_gamma, ensure};
 use crate::off_policy::{OffPolicy, OffPolicyLearner, bellman_target, twin_mse};
 use crate::replay::ReplayBatch;
 use crate::tensors::{host, matrix, mean, standard_normal, vector};
@@ -29,6 +29,8 @@ use std::path::Path;
 pub struct SacConfig {
     /// Actor and critics.
     pub net: NetConfig,
+    /// Discount factor.
+    pub gamma: f32,
     /// Replay schedule.
     pub off_policy: OffPolicyConfig,
     /// Initial temperature `alpha` (SB3's `"auto_1.0"`).
@@ -43,6 +45,7 @@ impl Default for SacConfig {
     fn default() -> Self {
         Self {
             net: NetConfig::default(),
+            gamma: DEFAULT_GAMMA,
             off_policy: OffPolicyConfig::default(),
             init_alpha: 1.0,
             target_entropy: None,
@@ -55,6 +58,7 @@ impl SacConfig {
     /// Rejects invalid settings, naming the key.
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.net.validate().map_err(|e| e.under("net"))?;
+        check_gamma(self.gamma)?;
         self.off_policy
             .validate()
             .map_err(|e| e.under("off_policy"))?;
@@ -230,7 +234,7 @@ impl OffPolicyLearner for Sac {
         let n = batch.rewards.len();
         let dev = self.device.clone();
         let plain = dev.clone().without_autodiff();
-        let gamma = self.config.off_policy.gamma;
+        let gamma = self.config.gamma;
 
         // 1. Current policy on s (kept in the graph for the actor loss).
         let obs = matrix(&batch.obs, o, &dev);

@@ -11,7 +11,7 @@
 //! Exploration adds `N(0, action_noise^2)` to the deterministic action, clipped to `[-1, 1]`.
 
 use crate::agent::{ActMode, AgentError, Metrics};
-use crate::config::{ConfigError, NetConfig, OffPolicyConfig, ensure};
+use crate::config::{ConfigError, DEFAULT_GAMMA, NetConfig, OffPolicyConfig, check_gamma, ensure};
 use crate::off_policy::{OffPolicy, OffPolicyLearner, bellman_target, twin_mse};
 use crate::replay::ReplayBatch;
 use crate::tensors::{host, matrix, mean, standard_normal, vector};
@@ -30,6 +30,8 @@ use std::path::Path;
 pub struct Td3Config {
     /// Actor and critics.
     pub net: NetConfig,
+    /// Discount factor.
+    pub gamma: f32,
     /// Replay schedule.
     pub off_policy: OffPolicyConfig,
     /// Critic updates per actor and target update.
@@ -46,6 +48,7 @@ impl Default for Td3Config {
     fn default() -> Self {
         Self {
             net: NetConfig::default(),
+            gamma: DEFAULT_GAMMA,
             off_policy: OffPolicyConfig::default(),
             policy_delay: 2,
             target_policy_noise: 0.2,
@@ -59,6 +62,7 @@ impl Td3Config {
     /// Rejects invalid settings, naming the key.
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.net.validate().map_err(|e| e.under("net"))?;
+        check_gamma(self.gamma)?;
         self.off_policy
             .validate()
             .map_err(|e| e.under("off_policy"))?;
@@ -194,7 +198,7 @@ impl OffPolicyLearner for Td3 {
         let min_q_next = self.critic_target.valid().min(next_obs, next_actions);
         let rewards = vector(&batch.rewards, &plain);
         let dones = vector(&batch.dones, &plain);
-        let target = bellman_target(rewards, dones, min_q_next, c.off_policy.gamma).autodiff();
+        let target = bellman_target(rewards, dones, min_q_next, c.gamma).autodiff();
         let obs = matrix(&batch.obs, o, &dev);
         let (q1, q2) = self
             .critic
