@@ -1,7 +1,7 @@
 //! Scripted policies for yellow, played through the same evaluation as trained agents:
 //! the yardsticks of the report (`evaluate --policy shooter|dribbler|zero|random`).
 
-use crate::evaluation::{BatchPolicy, play, write_test};
+use crate::evaluation::{BatchPolicy, PlayedEpisode, play, write_test};
 use crate::metrics::TestMetrics;
 use crate::run_dir::{RunFileError, write_atomic};
 use crate::train::TrainError;
@@ -78,18 +78,22 @@ impl Baseline {
     /// Plays `episodes` test episodes (trajectories recorded when `record`) and writes
     /// `metrics.json`, `metrics.md`, `trajectories.bin` and `baseline.toml` into `dir`.
     pub fn test(&self, episodes: u32, dir: &Path, record: bool) -> Result<TestMetrics, TrainError> {
+        let metrics = write_test(dir, &self.play(episodes, record)?)?;
+        self.write(dir)?;
+        Ok(metrics)
+    }
+
+    /// Plays `episodes` test episodes (steps kept when `record`), in seed order.
+    pub fn play(&self, episodes: u32, record: bool) -> Result<Vec<PlayedEpisode>, TrainError> {
         let mut act = self.policy.batch_policy(self.seed);
-        let played = play(
+        play(
             act.as_mut(),
             &self.env,
             self.seed,
             TEST_ENVS,
             episodes,
             record,
-        )?;
-        let metrics = write_test(dir, &played)?;
-        self.write(dir)?;
-        Ok(metrics)
+        )
     }
 
     /// Writes `dir/baseline.toml`.

@@ -114,6 +114,16 @@ impl RecordedEpisode {
     pub fn ret(&self) -> f64 {
         self.trajectory.rewards.iter().map(|&r| f64::from(r)).sum()
     }
+
+    /// Whether the ball was seen in black's goal: some observed ball y at or past
+    /// `goal_line_y`, cm (the rules' `reward.goal_line_y`; foosball's 38-dim layout).
+    pub fn scored(&self, goal_line_y: f32) -> bool {
+        use foosball_env::layout;
+        self.trajectory
+            .obs
+            .chunks_exact(layout::OBS_DIM)
+            .any(|o| o[layout::BALL_POS.start + 1] >= goal_line_y)
+    }
 }
 
 /// Indices of `episodes` from the highest return to the lowest (ties in index order).

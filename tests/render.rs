@@ -1,5 +1,7 @@
-//! `render`: recorded episodes become GIFs; a trajectories file of another format or
-//! version, a truncated one and an episode index out of range are refused by name.
+//! `render`: recorded episodes become GIFs, live play of a policy goes to the named file,
+//! MP4 goes through ffmpeg (refused by name where it is missing); a trajectories file of
+//! another format or version, a truncated one and an episode index out of range are
+//! refused by name.
 
 mod common;
 
@@ -65,8 +67,20 @@ fn recorded_episodes_read_back_and_become_gifs() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let gif = std::fs::read(out.join("episode-1.gif")).unwrap();
     assert_eq!(&gif[..6], b"GIF89a");
-    // Width and height at the default 3 px/cm: the table's 72 x 138.24 cm frame.
+    // Width and height at the default 3 px/cm: the table's 72 x 138.24 cm frame below a
+    // caption band of two 13 px lines.
     assert_eq!(u16::from_le_bytes([gif[6], gif[7]]), 216);
+    assert_eq!(u16::from_le_bytes([gif[8], gif[9]]), 415 + 32);
+    let bare = dir.join("bare.gif");
+    let o = render(&[
+        "--trajectories",
+        path.to_str().unwrap(),
+        "--no-caption",
+        "--out",
+        bare.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let gif = std::fs::read(&bare).unwrap();
     assert_eq!(u16::from_le_bytes([gif[8], gif[9]]), 415);
 
     let e = render(&["--trajectories", path.to_str().unwrap(), "--episodes", "5"]);
@@ -91,5 +105,80 @@ fn recorded_episodes_read_back_and_become_gifs() {
             .unwrap_err()
             .contains("not a trajectories file")
     );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_policy_played_live_goes_to_the_named_file() {
+    let dir = scratch("render-live");
+    let out = dir.join("best.gif");
+    let o = render(&[
+        "--policy",
+        "shooter",
+        "--play",
+        "3",
+        "--best",
+        "1",
+        "--every",
+        "10",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        text.contains("3 test episodes of shooter under reference"),
+        "{text}"
+    );
+    assert_eq!(&std::fs::read(&out).unwrap()[..6], b"GIF89a");
+    // Several episodes into one named file: numbered siblings.
+    let o = render(
+        &[
+            "--policy",
+            "zero",
+            "--play",
+            "2",
+            "--episodes",
+            "0,1",
+            "--out",
+        ]
+        .into_iter()
+        .chain([out.to_str().unwrap()])
+        .collect::<Vec<_>>(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(dir.join("best-0.gif").is_file() && dir.join("best-1.gif").is_file());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn mp4_goes_through_ffmpeg_and_is_refused_by_name_without_it() {
+    let dir = scratch("render-mp4");
+    let out = dir.join("zero.mp4");
+    let args = [
+        "--policy",
+        "zero",
+        "--play",
+        "1",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let empty = dir.join("no-programs");
+    std::fs::create_dir_all(&empty).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_render"))
+        .args(args)
+        .env("PATH", &empty)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("ffmpeg is not installed"), "{err}");
+    assert!(!out.exists());
+    // Where ffmpeg is installed (not in CI), the same command writes an MP4.
+    if Command::new("ffmpeg").arg("-version").output().is_ok() {
+        let o = render(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert_eq!(&std::fs::read(&out).unwrap()[4..8], b"ftyp");
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }

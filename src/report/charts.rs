@@ -7,16 +7,6 @@ use crate::stats::{self, mean};
 use plotters::prelude::*;
 use std::path::Path;
 
-/// Registers the bundled DejaVu Sans for chart text (once per process).
-fn register_font() {
-    static ONCE: std::sync::Once = std::sync::Once::new();
-    ONCE.call_once(|| {
-        plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular())
-            .map_err(|_| ())
-            .expect("DejaVu Sans is a valid font");
-    });
-}
-
 /// An axis label with as many decimals as an axis spanning `span` needs.
 fn tick(v: f64, span: f64) -> String {
     let decimals = if span >= 100.0 {
@@ -45,7 +35,7 @@ fn png(
     size: (u32, u32),
     draw: impl FnOnce(&Drawing<'_>) -> Result<(), DrawError>,
 ) -> Result<(), ReportError> {
-    register_font();
+    crate::font::register();
     foosball_nets::atomic_file::replace_file(path, |tmp| {
         let root = BitMapBackend::new(tmp, size).into_drawing_area();
         root.fill(&WHITE)

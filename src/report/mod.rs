@@ -60,6 +60,8 @@ pub struct RunResults {
     pub preset: String,
     /// Hidden widths of the networks (empty for a scripted policy).
     pub hidden: Vec<usize>,
+    /// The rules' goal line (`reward.goal_line_y`), cm.
+    pub goal_line_y: f32,
     /// The test metrics (`test/metrics.json`, or `metrics.json` of a baseline).
     pub metrics: TestMetrics,
     /// `evaluations.csv` (empty for a baseline).
@@ -111,6 +113,7 @@ impl RunResults {
             player: config.algo().to_string(),
             preset: preset_label(&config.env),
             hidden: config.hidden().to_vec(),
+            goal_line_y: config.env.reward.goal_line_y,
             metrics: read_metrics(&dir.join("test/metrics.json"))?,
             evaluations: read_evaluations(&dir.join("evaluations.csv"))?,
         })
@@ -125,6 +128,7 @@ impl RunResults {
             player: b.policy.name().to_string(),
             preset: preset_label(&b.env),
             hidden: Vec::new(),
+            goal_line_y: b.env.reward.goal_line_y,
             metrics: read_metrics(&dir.join("metrics.json"))?,
             evaluations: Vec::new(),
         })
@@ -320,7 +324,6 @@ pub fn markdown_tables(groups: &[Group]) -> String {
 /// best and worst test episode (by return) in `out`, as markdown; nothing where no run
 /// has them (`trajectories.bin` is not committed with results).
 fn episode_gifs(groups: &[Group], out: &Path) -> Result<String, ReportError> {
-    let renderer = foosball_env::render::Renderer::new(2.0);
     let mut md = String::new();
     for g in groups.iter().filter(|g| !g.runs[0].is_baseline()) {
         let run = &g.runs[0];
@@ -333,18 +336,20 @@ fn episode_gifs(groups: &[Group], out: &Path) -> Result<String, ReportError> {
         let (Some(&best), Some(&worst)) = (order.first(), order.last()) else {
             continue;
         };
+        let animation = crate::animation::Animation {
+            renderer: foosball_env::render::Renderer::new(2.0),
+            every: 10,
+            delay_cs: 4,
+            caption: true,
+            goal_line_y: run.goal_line_y,
+        };
         let stem = g.label.replace(['*', ' '], "_");
         md += &format!("### {} ({})\n\n", g.label, run.name);
         for (what, k) in [("best", best), ("worst", worst)] {
             let file = format!("{stem}-{what}.gif");
-            crate::animation::episode_gif(
-                &out.join(&file),
-                &episodes[k].trajectory,
-                &renderer,
-                10,
-                4,
-            )
-            .map_err(|e| error(&out.join(&file), e))?;
+            animation
+                .write(&out.join(&file), &episodes[k].trajectory)
+                .map_err(|e| error(&out.join(&file), e))?;
             md += &format!(
                 "{what} test episode {k} (return {:.0}, {} steps): ![{what}]({file})\n\n",
                 episodes[k].ret(),

@@ -2,15 +2,17 @@
 //!
 //! Prints physics steps/s of the bare table, single-env agent steps/s at the default
 //! frame_skip (random actions, auto-reset, resets included), and VecEnv agent steps/s on
-//! 1 and 2 threads. Wall-clock figures: run on an idle machine. The figures also go to
+//! 1 and 2 threads, and rendered frames/s (84 x 84 and 3 px/cm). Wall-clock figures: run on an idle machine. The figures also go to
 //! `target/bench/env_speed.json` (`bare_physics_steps_per_s`, `env_loop_physics_steps_per_s`,
-//! `env_steps_per_s_frame_skip_1`, `vec_env_speedup_2_threads`, ...).
+//! `env_steps_per_s_frame_skip_1`, `vec_env_speedup_2_threads`,
+//! `render_frames_per_s_84x84`, ...).
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use foosball_env::geometry::BALL_RADIUS;
-use foosball_env::layout::ACTION_DIM;
+use foosball_env::layout::{ACTION_DIM, OBS_DIM};
+use foosball_env::render::Renderer;
 use foosball_env::table::{PhysicsParams, Table};
 use foosball_env::{EndReason, Env, EnvRng, FoosballConfig, FoosballEnv, VecEnv};
 use rand::{Rng, SeedableRng};
@@ -100,6 +102,32 @@ fn main() {
             steps as f64 / episodes.max(1) as f64,
             100.0 * stagnant as f64 / episodes.max(1) as f64
         );
+    }
+
+    // Rendering: states from a random-action episode, drawn as 84 x 84 frames (image
+    // observations' size) and at the GIFs' 3 px/cm.
+    let mut env = FoosballEnv::new(config.clone()).unwrap();
+    let mut rng = EnvRng::seed_from_u64(3);
+    let mut states: Vec<[f32; OBS_DIM]> = vec![env.reset(Some(3)).try_into().unwrap()];
+    while states.len() < 200 {
+        let (obs, t) = env.step(&random_actions(&mut rng, 1)).unwrap();
+        states.push(obs.try_into().unwrap());
+        if t.done() {
+            env.reset(None);
+        }
+    }
+    for (name, renderer) in [
+        ("render_frames_per_s_84x84", Renderer::fit(84, 84)),
+        ("render_frames_per_s_3px_per_cm", Renderer::new(3.0)),
+    ] {
+        let mut k = 0;
+        let per_s = rate(|| {
+            black_box(renderer.draw(&states[k % states.len()]));
+            k += 1;
+        });
+        let (w, h) = renderer.size();
+        println!("rendered frames/s, {w} x {h} (1 thread):            {per_s:>10.0}");
+        out.push((name.into(), per_s));
     }
 
     let n = 16;

@@ -49,11 +49,14 @@ pub mod colour {
     pub const SHADOW: [u8; 3] = [15, 60, 30];
 }
 
-/// Draws states at a fixed scale.
+/// Draws states at a fixed scale: `scale_x` pixels per cm across the table, `scale_y`
+/// along it (equal unless the frame size is fixed, see [`Renderer::fit`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Renderer {
-    /// Pixels per cm.
-    pub scale: f32,
+    /// Pixels per cm across the table (x).
+    pub scale_x: f32,
+    /// Pixels per cm along the table (y).
+    pub scale_y: f32,
 }
 
 /// Half extents of the picture, cm: the table's frame around the goal pockets.
@@ -61,22 +64,33 @@ const HALF_X: f32 = FIELD_HALF_WIDTH + 2.0;
 const HALF_Y: f32 = GOAL_POCKET_BACK + 1.0;
 
 impl Renderer {
-    /// A renderer drawing `scale` pixels per cm (> 0).
+    /// A renderer drawing `scale` pixels per cm (> 0) both ways.
     pub fn new(scale: f32) -> Self {
+        let scale = scale.max(0.01);
         Self {
-            scale: scale.max(0.01),
+            scale_x: scale,
+            scale_y: scale,
+        }
+    }
+
+    /// A renderer whose frames are `width x height` pixels (each >= 1), the whole table
+    /// stretched to fill them (e.g. 84 x 84 image observations).
+    pub fn fit(width: usize, height: usize) -> Self {
+        Self {
+            scale_x: width.max(1) as f32 / (2.0 * HALF_X),
+            scale_y: height.max(1) as f32 / (2.0 * HALF_Y),
         }
     }
 
     /// Width and height of its frames, pixels.
     pub fn size(&self) -> (usize, usize) {
-        let px = |cm: f32| ((2.0 * cm * self.scale).round() as usize).max(1);
-        (px(HALF_X), px(HALF_Y))
+        let px = |cm: f32, scale: f32| ((2.0 * cm * scale).round() as usize).max(1);
+        (px(HALF_X, self.scale_x), px(HALF_Y, self.scale_y))
     }
 
     /// Pixel coordinates (column, row) of the world point `(x, y)` cm.
     pub fn to_pixel(&self, x: f32, y: f32) -> (f32, f32) {
-        ((x + HALF_X) * self.scale, (HALF_Y - y) * self.scale)
+        ((x + HALF_X) * self.scale_x, (HALF_Y - y) * self.scale_y)
     }
 
     /// The picture of `state` (the 38-dim observation layout).
@@ -177,17 +191,27 @@ impl Canvas {
         }
     }
 
-    /// Fills the world disc of centre `(x, y)` and radius `r`, cm (pixel centres inside).
+    /// Fills the world disc of centre `(x, y)` and radius `r`, cm (pixel centres inside;
+    /// an ellipse in pixels when the two scales differ). At least the pixel holding the
+    /// centre, so that a small frame still shows the ball.
     fn disc(&mut self, x: f32, y: f32, r: f32, c: [u8; 3]) {
         let (cx, cy) = self.renderer.to_pixel(x, y);
-        let rp = r * self.renderer.scale;
-        for row in Self::span(cy - rp, cy + rp + 1.0, self.frame.height) {
-            for col in Self::span(cx - rp, cx + rp + 1.0, self.frame.width) {
-                let (dx, dy) = (col as f32 + 0.5 - cx, row as f32 + 0.5 - cy);
-                if dx * dx + dy * dy <= rp * rp {
+        let (rx, ry) = (r * self.renderer.scale_x, r * self.renderer.scale_y);
+        for row in Self::span(cy - ry, cy + ry + 1.0, self.frame.height) {
+            for col in Self::span(cx - rx, cx + rx + 1.0, self.frame.width) {
+                let (dx, dy) = ((col as f32 + 0.5 - cx) / rx, (row as f32 + 0.5 - cy) / ry);
+                if dx * dx + dy * dy <= 1.0 {
                     self.set(col, row, c);
                 }
             }
+        }
+        let (col, row) = (cx.floor(), cy.floor());
+        if col >= 0.0
+            && row >= 0.0
+            && (col as usize) < self.frame.width
+            && (row as usize) < self.frame.height
+        {
+            self.set(col as usize, row as usize, c);
         }
     }
 }
@@ -221,6 +245,18 @@ mod tests {
         assert_eq!(at(6.0, -7.5), colour::ROD);
         assert_eq!(at(0.0, 64.0), colour::GOAL);
         assert_eq!(at(20.0, 64.0), colour::WALL);
+    }
+
+    #[test]
+    fn a_fitted_frame_has_the_asked_size_and_shows_the_ball() {
+        let r = Renderer::fit(84, 84);
+        assert_eq!(r.size(), (84, 84));
+        let f = r.draw(&state_with_ball(-20.0, 40.0));
+        assert_eq!(f.rgb.len(), 84 * 84 * 3);
+        let (c, row) = r.to_pixel(-20.0, 40.0);
+        assert_eq!(f.pixel(c as usize, row as usize), colour::BALL);
+        assert_eq!(f.pixel(42, 1), colour::GOAL);
+        assert_eq!(f.pixel(0, 42), colour::WALL);
     }
 
     #[test]

@@ -1,0 +1,185 @@
+//! Who plays test episodes for `evaluate` and `render`: a run's saved networks or a
+//! scripted policy on a table, chosen by the same command-line options in both.
+
+use crate::agents::{build_agent, device};
+use crate::config::RunConfig;
+use crate::evaluation::{PlayedEpisode, deterministic, play, write_test};
+use crate::metrics::TestMetrics;
+use crate::policy::{Baseline, ScriptedPolicy};
+use foosball_env::seeding::TEST_ENVS;
+use foosball_env::{FoosballConfig, Preset};
+use std::path::{Path, PathBuf};
+
+/// Which saved networks of a run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Checkpoint {
+    /// The networks of the best evaluation.
+    Best,
+    /// The networks after the last finished epoch.
+    Last,
+}
+
+impl Checkpoint {
+    /// Lower-case name, also the folder the run keeps them in.
+    pub fn name(self) -> &'static str {
+        match self {
+            Checkpoint::Best => "best",
+            Checkpoint::Last => "last",
+        }
+    }
+}
+
+/// The command-line options that choose a [`Player`].
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct PlayerArgs {
+    /// Run directory written by `train`.
+    #[arg(long)]
+    pub run: Option<PathBuf>,
+    /// Saved networks of the run (default best).
+    #[arg(long, value_enum, requires = "run")]
+    pub checkpoint: Option<Checkpoint>,
+    /// A scripted policy instead of a run's networks.
+    #[arg(long, value_enum, conflicts_with_all = ["run", "checkpoint"])]
+    pub policy: Option<ScriptedPolicy>,
+    /// With `--policy`: the rule preset of the table (default reference).
+    #[arg(long, requires = "policy", conflicts_with = "config")]
+    pub preset: Option<Preset>,
+    /// With `--policy`: a run configuration whose `[env]` and `protocol.seed` to use.
+    #[arg(long, requires = "policy")]
+    pub config: Option<PathBuf>,
+    /// With `--policy`: the seed the test seeds derive from (default the config's, or 0).
+    #[arg(long, requires = "policy")]
+    pub seed: Option<u64>,
+}
+
+/// What plays: a run's networks or a scripted policy, each on its own table and seeds.
+#[derive(Clone, Debug)]
+pub enum Player {
+    /// The networks a run saved in `dir/<checkpoint>`.
+    Networks {
+        /// The run directory.
+        dir: PathBuf,
+        /// Its configuration (table, seed, algorithm, backend).
+        config: Box<RunConfig>,
+        /// Which networks.
+        checkpoint: Checkpoint,
+    },
+    /// A scripted policy on a table.
+    Scripted(Baseline),
+}
+
+impl Player {
+    /// The player the options name; an error says which option is missing or at fault.
+    pub fn from_args(args: &PlayerArgs) -> Result<Self, String> {
+        match (&args.run, args.policy) {
+            (_, Some(policy)) => {
+                let (env, config_seed) = match &args.config {
+                    Some(path) => {
+                        let c = RunConfig::load(path).map_err(|e| e.to_string())?;
+                        (c.env, c.protocol.seed)
+                    }
+                    None => (FoosballConfig::preset(args.preset.unwrap_or_default()), 0),
+                };
+                let seed = args.seed.unwrap_or(config_seed);
+                Ok(Player::Scripted(Baseline { policy, seed, env }))
+            }
+            (Some(dir), None) => {
+                let config = RunConfig::load_run(dir).map_err(|e| e.to_string())?;
+                let checkpoint = args.checkpoint.unwrap_or(Checkpoint::Best);
+                let networks = dir.join(checkpoint.name());
+                if !networks.is_dir() {
+                    return Err(format!(
+                        "{}: no saved networks (the run has not reached its first {} checkpoint)",
+                        networks.display(),
+                        checkpoint.name()
+                    ));
+                }
+                Ok(Player::Networks {
+                    dir: dir.clone(),
+                    config: Box::new(config),
+                    checkpoint,
+                })
+            }
+            (None, None) => Err("give --run RUN or --policy NAME".into()),
+        }
+    }
+
+    /// The table it plays on.
+    pub fn env(&self) -> &FoosballConfig {
+        match self {
+            Player::Networks { config, .. } => &config.env,
+            Player::Scripted(b) => &b.env,
+        }
+    }
+
+    /// Test episodes when none are asked for: the run's protocol, or 1,000.
+    pub fn default_episodes(&self) -> u32 {
+        match self {
+            Player::Networks { config, .. } => config.protocol.test_episodes,
+            Player::Scripted(_) => 1000,
+        }
+    }
+
+    /// A short name: `sac 64x64 (last networks of runs/x)`, `shooter under reference`.
+    pub fn describe(&self) -> String {
+        match self {
+            Player::Networks {
+                dir,
+                config,
+                checkpoint,
+            } => format!(
+                "{} {} ({} networks of {})",
+                config.algo(),
+                config
+                    .hidden()
+                    .iter()
+                    .map(usize::to_string)
+                    .collect::<Vec<_>>()
+                    .join("x"),
+                checkpoint.name(),
+                dir.display()
+            ),
+            Player::Scripted(b) => format!("{} under {}", b.policy.name(), b.env.preset.name()),
+        }
+    }
+
+    /// Plays `episodes` deterministic episodes on the test seeds (steps kept when
+    /// `record`), in seed order.
+    pub fn play(&self, episodes: u32, record: bool) -> Result<Vec<PlayedEpisode>, String> {
+        match self {
+            Player::Networks {
+                dir,
+                config,
+                checkpoint,
+            } => {
+                let device = device(config).map_err(|e| e.to_string())?;
+                let mut agent = build_agent(config, &device);
+                agent
+                    .load(&dir.join(checkpoint.name()))
+                    .map_err(|e| e.to_string())?;
+                play(
+                    &mut deterministic(agent.as_mut()),
+                    &config.env,
+                    config.protocol.seed,
+                    TEST_ENVS,
+                    episodes,
+                    record,
+                )
+                .map_err(|e| e.to_string())
+            }
+            Player::Scripted(b) => b.play(episodes, record).map_err(|e| e.to_string()),
+        }
+    }
+
+    /// Plays `episodes` test episodes and writes the test files into `dir` (with
+    /// `baseline.toml` for a scripted policy).
+    pub fn test(&self, episodes: u32, dir: &Path) -> Result<TestMetrics, String> {
+        match self {
+            Player::Networks { .. } => {
+                let played = self.play(episodes, true)?;
+                write_test(dir, &played).map_err(|e| e.to_string())
+            }
+            Player::Scripted(b) => b.test(episodes, dir, true).map_err(|e| e.to_string()),
+        }
+    }
+}
