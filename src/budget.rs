@@ -7,7 +7,7 @@ use crate::agents::{build_agent, device};
 use crate::config::{Algo, AlgoConfig, RunConfig};
 use crate::train::TrainError;
 use foosball_algos::{ActMode, Experience, SacConfig, Td3Config};
-use foosball_env::layout::{ACTION_DIM, OBS_DIM};
+use foosball_env::layout::ACTION_DIM;
 use foosball_env::{Env, FoosballEnv};
 use std::time::{Duration, Instant};
 
@@ -141,9 +141,10 @@ fn mlp_params(input: usize, hidden: &[usize], output: usize) -> f64 {
 }
 
 /// Estimated bytes the run's learner holds: f32 parameters of every network, and for each
-/// trained one its gradient and two Adam moments, plus the replay buffer's rows.
+/// trained one its gradient and two Adam moments, plus the replay buffer's rows (f32
+/// observation and next observation: image observations count every pixel).
 pub fn learner_bytes(config: &RunConfig) -> f64 {
-    let (o, a, h) = (OBS_DIM, ACTION_DIM, config.hidden());
+    let (o, a, h) = (config.env.observation.dim(), ACTION_DIM, config.hidden());
     let q = mlp_params(o + a, h, 1);
     let buffer = config.algorithm.off_policy().map_or(0, |c| c.buffer_size);
     let (trained, targets) = match config.algo() {
@@ -174,11 +175,14 @@ pub fn check(config: &RunConfig, available: Option<f64>) -> Result<(), String> {
     match available {
         Some(have) if need > have => Err(format!(
             "{}.net.hidden = {:?} with its buffers needs about {:.1} GiB (parameters, \
-             gradients, Adam moments, targets, replay buffer) but this machine has {:.1} GiB \
-             available: choose smaller --hidden or buffer_size",
+             gradients, Adam moments, targets, replay buffer of {} observations of {} \
+             values) but this machine has {:.1} GiB available: choose smaller --hidden, \
+             buffer_size or env.observation",
             config.algo(),
             config.hidden(),
             gib(need),
+            config.algorithm.off_policy().map_or(0, |c| c.buffer_size),
+            config.env.observation.dim(),
             gib(have)
         )),
         _ => Ok(()),
@@ -208,5 +212,19 @@ mod tests {
         assert!((0.3e9..0.4e9).contains(&need), "{need}");
         check(&c, Some(24.0 * (1u64 << 30) as f64)).unwrap();
         check(&c, None).unwrap();
+    }
+
+    #[test]
+    fn image_observations_count_every_pixel_of_the_replay_buffer() {
+        let text = "algo = \"sac\"\n[sac.net]\nhidden = [64, 64]\n\
+                    [env.observation]\nkind = \"image\"\n";
+        let mut c = RunConfig::from_toml(text, std::path::Path::new("x.toml")).unwrap();
+        // 1e6 rows of two 4 x 84 x 84 observations in f32: ~226 GB.
+        let e = check(&c, Some(24.0 * (1u64 << 30) as f64)).unwrap_err();
+        assert!(e.contains("1000000 observations of 28224 values"), "{e}");
+        if let AlgoConfig::Sac(s) = &mut c.algorithm {
+            s.off_policy.buffer_size = 20_000;
+        }
+        check(&c, Some(24.0 * (1u64 << 30) as f64)).unwrap();
     }
 }

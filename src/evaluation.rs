@@ -16,11 +16,11 @@ use std::path::Path;
 /// protocol: it fixes the policy's batch shape).
 pub const EVAL_BATCH: usize = 10;
 
-/// One episode's steps: observations acted on `[T, obs_dim]`, actions `[T, action_dim]`,
-/// rewards `[T]`.
+/// One episode's steps: the table's states acted on `[T, 38]` (noise-free, whatever the
+/// agent observes), actions `[T, action_dim]`, rewards `[T]`.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Trajectory {
-    /// Observations, row-major.
+    /// States, row-major (foosball's 38-dim layout).
     pub obs: Vec<f32>,
     /// Actions, row-major, in `[-1, 1]`.
     pub actions: Vec<f32>,
@@ -50,8 +50,16 @@ impl PlayedEpisode {
     }
 }
 
-impl EpisodeLog<FoosballInfo> for PlayedEpisode {
-    fn record(&mut self, obs: &[f32], action: &[f32], t: &Transition<FoosballInfo>) {
+impl EpisodeLog<FoosballEnv> for PlayedEpisode {
+    /// The trajectory keeps the table's 38-dim state (whatever the agent observes), so
+    /// that episodes of image agents stay small and can be drawn.
+    fn before_step(&mut self, env: &FoosballEnv) {
+        if let (Some(tr), Some(state)) = (self.trajectory.as_mut(), env.state()) {
+            tr.obs.extend_from_slice(state);
+        }
+    }
+
+    fn record(&mut self, _obs: &[f32], action: &[f32], t: &Transition<FoosballInfo>) {
         let s = &mut self.summary;
         s.steps += 1;
         s.ret += f64::from(t.reward);
@@ -61,7 +69,6 @@ impl EpisodeLog<FoosballInfo> for PlayedEpisode {
         s.scored |= t.info.scored();
         s.end = t.info.end;
         if let Some(tr) = self.trajectory.as_mut() {
-            tr.obs.extend_from_slice(obs);
             tr.actions.extend_from_slice(action);
             tr.rewards.push(t.reward);
         }

@@ -5,12 +5,12 @@ use crate::evaluation::{BatchPolicy, PlayedEpisode, play, write_test};
 use crate::metrics::TestMetrics;
 use crate::run_dir::{RunFileError, write_atomic};
 use crate::train::TrainError;
-use foosball_env::FoosballConfig;
 use foosball_env::layout::OBS_DIM;
 use foosball_env::opponent::{RandomOpponent, StaticOpponent};
 use foosball_env::scripted::Kicker;
 use foosball_env::seeding::TEST_ENVS;
 use foosball_env::{EnvRng, Opponent};
+use foosball_env::{FoosballConfig, ObservationKind};
 use rand::SeedableRng;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -85,6 +85,12 @@ impl Baseline {
 
     /// Plays `episodes` test episodes (steps kept when `record`), in seed order.
     pub fn play(&self, episodes: u32, record: bool) -> Result<Vec<PlayedEpisode>, TrainError> {
+        if self.env.observation.kind != ObservationKind::State {
+            return Err(TrainError::Env(format!(
+                "env.observation.kind: {} reads the 38-dim state; set it to \"state\"",
+                self.policy.name()
+            )));
+        }
         let mut act = self.policy.batch_policy(self.seed);
         play(
             act.as_mut(),

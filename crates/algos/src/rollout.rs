@@ -119,14 +119,17 @@ pub fn deterministic(agent: &mut dyn Agent) -> impl FnMut(&[f32]) -> Vec<f32> + 
     move |obs| agent.act(obs, ActMode::Deterministic)
 }
 
-/// What an episode leaves behind, folded from its steps.
-pub trait EpisodeLog<I>: Send {
+/// What an episode of `E` leaves behind, folded from its steps.
+pub trait EpisodeLog<E: Env>: Send {
+    /// Before each step: the env as the policy acts on it (e.g. to read its state).
+    fn before_step(&mut self, _env: &E) {}
+
     /// One step: the observation acted on, the action taken and what followed.
-    fn record(&mut self, obs: &[f32], action: &[f32], transition: &Transition<I>);
+    fn record(&mut self, obs: &[f32], action: &[f32], transition: &Transition<E::Info>);
 }
 
-impl<I> EpisodeLog<I> for Episode {
-    fn record(&mut self, _: &[f32], _: &[f32], t: &Transition<I>) {
+impl<E: Env> EpisodeLog<E> for Episode {
+    fn record(&mut self, _: &[f32], _: &[f32], t: &Transition<E::Info>) {
         self.ret += f64::from(t.reward);
         self.len += 1;
     }
@@ -146,7 +149,7 @@ struct Slot<L> {
 /// (`new_log(seed)` starts each) in seed order. An env takes the next seed as soon as
 /// its episode ends. The number of envs is part of an evaluation protocol: a batch of
 /// another size may round the networks' outputs differently in the last bit.
-pub fn play_deterministic<E: Env, L: EpisodeLog<E::Info>>(
+pub fn play_deterministic<E: Env, L: EpisodeLog<E>>(
     policy: &mut BatchPolicy<'_>,
     envs: &mut [E],
     seeds: &[u64],
@@ -192,6 +195,7 @@ pub fn play_deterministic<E: Env, L: EpisodeLog<E::Info>>(
         let ended: Vec<Result<bool, EnvError>> = work
             .into_par_iter()
             .map(|(env, slot, action)| {
+                slot.log.before_step(env);
                 let t = env.step_into(action, &mut slot.next_obs)?;
                 slot.log.record(&slot.obs, action, &t);
                 std::mem::swap(&mut slot.obs, &mut slot.next_obs);

@@ -14,7 +14,9 @@ use foosball_env::geometry::BALL_RADIUS;
 use foosball_env::layout::{ACTION_DIM, OBS_DIM};
 use foosball_env::render::Renderer;
 use foosball_env::table::{PhysicsParams, Table};
-use foosball_env::{EndReason, Env, EnvRng, FoosballConfig, FoosballEnv, VecEnv};
+use foosball_env::{
+    EndReason, Env, EnvRng, FoosballConfig, FoosballEnv, ObservationConfig, ObservationKind, VecEnv,
+};
 use rand::{Rng, SeedableRng};
 
 #[path = "../../../benches/figures.rs"]
@@ -128,6 +130,29 @@ fn main() {
         let (w, h) = renderer.size();
         println!("rendered frames/s, {w} x {h} (1 thread):            {per_s:>10.0}");
         out.push((name.into(), per_s));
+    }
+
+    // Image observations (84 x 84 grey, 4 frames) against the state, default preset.
+    let image = FoosballConfig {
+        observation: ObservationConfig {
+            kind: ObservationKind::Image,
+            ..ObservationConfig::default()
+        },
+        ..config.clone()
+    };
+    for (name, c) in [("state", config.clone()), ("image_84x84x4", image)] {
+        let mut env = FoosballEnv::new(c).unwrap();
+        let mut obs = vec![0.0; env.obs_dim()];
+        env.reset_into(Some(0), &mut obs);
+        let mut rng = EnvRng::seed_from_u64(4);
+        let per_s = rate(|| {
+            let a = random_actions(&mut rng, 1);
+            if env.step_into(&a, &mut obs).unwrap().done() {
+                env.reset_into(None, &mut obs);
+            }
+        });
+        println!("env steps/s, {name} observations (1 thread):     {per_s:>10.0}");
+        out.push((format!("env_steps_per_s_{name}_obs"), per_s));
     }
 
     let n = 16;

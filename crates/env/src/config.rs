@@ -26,6 +26,7 @@
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use crate::geometry::{self, BALL_MASS, GOAL_LINE_Y};
+use crate::observation::ObservationConfig;
 
 /// A setting with a value it must not take.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -144,6 +145,8 @@ pub struct FoosballConfig {
     pub opponent: OpponentKind,
     /// Per-episode domain randomisation (off by default, as in the paper).
     pub randomization: Randomization,
+    /// What the agent observes: the 38-dim state (default) or stacked frames.
+    pub observation: ObservationConfig,
 }
 
 impl Default for FoosballConfig {
@@ -166,6 +169,7 @@ impl FoosballConfig {
             ball: BallConfig::default(),
             opponent: OpponentKind::Static,
             randomization: Randomization::default(),
+            observation: ObservationConfig::default(),
         };
         let reachable_ball = (
             StartConfig {
@@ -464,6 +468,9 @@ fn range(key: &str, [lo, hi]: [f32; 2], allow_zero: bool) -> Result<(), ConfigEr
 impl FoosballConfig {
     /// Checks every value; the error names the first bad key.
     pub fn validate(&self) -> Result<(), ConfigError> {
+        self.observation
+            .validate()
+            .map_err(|e| e.under("observation"))?;
         positive("physics_dt", self.physics_dt)?;
         if self.physics_dt > 0.02 {
             return Err(ConfigError::new(

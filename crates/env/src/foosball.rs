@@ -23,6 +23,7 @@ use crate::layout::{
     self, ACTION_DIM, BALL_POS, BALL_VEL, OBS_DIM, ROD_ANGLE, ROD_ANGLE_VEL, ROD_SLIDE,
     ROD_SLIDE_VEL, action_slide, action_turn,
 };
+use crate::observation::{FrameStack, ObservationKind};
 use crate::opponent::{Opponent, opponent_for};
 use crate::render::{Frame, Renderer};
 use crate::table::{PhysicsParams, Table};
@@ -142,6 +143,8 @@ struct Episode {
 /// The foosball table as a reinforcement-learning environment (see the module docs).
 pub struct FoosballEnv {
     config: FoosballConfig,
+    /// The frames of an image observation (None for the state).
+    frames: Option<FrameStack>,
     rng: EnvRng,
     opponent: Box<dyn Opponent>,
     table: Option<Table>,
@@ -170,8 +173,11 @@ impl FoosballEnv {
         opponent: Box<dyn Opponent>,
     ) -> Result<Self, ConfigError> {
         config.validate()?;
+        let frames = (config.observation.kind == ObservationKind::Image)
+            .then(|| FrameStack::new(config.observation));
         Ok(Self {
             config,
+            frames,
             rng: EnvRng::seed_from_u64(0),
             opponent,
             table: None,
@@ -246,20 +252,39 @@ impl FoosballEnv {
         obs
     }
 
-    /// Writes `state` plus this episode's position noise into `out`.
-    fn emit(&mut self, state: &[f32; OBS_DIM], out: &mut [f32]) {
-        out.copy_from_slice(state);
+    /// Writes the observation of `state` into `out`: the state plus this episode's
+    /// position noise, or for images the stack with the picture of that noisy state
+    /// (filling the stack when `first` of the episode).
+    fn emit(&mut self, state: &[f32; OBS_DIM], out: &mut [f32], first: bool) {
+        let mut seen = *state;
         let std = self
             .episode
             .as_ref()
             .map_or(0.0, |e| e.draw.position_noise_std);
         if std > 0.0 {
             for range in [BALL_POS, ROD_SLIDE, ROD_ANGLE] {
-                for v in &mut out[range] {
+                for v in &mut seen[range] {
                     *v += std * gaussian(&mut self.rng);
                 }
             }
         }
+        match self.frames.as_mut() {
+            None => out.copy_from_slice(&seen),
+            Some(frames) => {
+                if first {
+                    frames.reset(&seen);
+                } else {
+                    frames.push(&seen);
+                }
+                frames.write(out);
+            }
+        }
+    }
+
+    /// The noise-free 38-dim state after the last step (None before the first reset):
+    /// what the renderer and scripted policies read whatever the observation kind.
+    pub fn state(&self) -> Option<&[f32; OBS_DIM]> {
+        self.episode.as_ref().map(|e| &e.state)
     }
 
     fn goal_distance(&self, ball: &[f32]) -> f32 {
@@ -312,7 +337,7 @@ impl Env for FoosballEnv {
     type Info = FoosballInfo;
 
     fn obs_dim(&self) -> usize {
-        OBS_DIM
+        self.config.observation.dim()
     }
 
     fn action_dim(&self) -> usize {
@@ -345,7 +370,7 @@ impl Env for FoosballEnv {
             state,
             over: false,
         });
-        self.emit(&state, obs);
+        self.emit(&state, obs, true);
     }
 
     fn step_into(
@@ -437,7 +462,7 @@ impl Env for FoosballEnv {
         if in_own_goal {
             reward -= rw.conceded_penalty;
         }
-        self.emit(&state, obs);
+        self.emit(&state, obs, false);
         Ok(Transition {
             reward,
             terminated: end.is_some_and(EndReason::is_terminal),

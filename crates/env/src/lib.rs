@@ -5,7 +5,8 @@
 //! - [`Pendulum`]: Gymnasium's `Pendulum-v1`, exact, for validating learners.
 //! - [`VecEnv`]: many environments stepped in parallel with rayon, auto-reset,
 //!   reproducible whatever the thread count.
-//! - [`render`]: top-down RGB frames of a table state (Gymnasium's `rgb_array`).
+//! - [`render`]: top-down RGB frames of a table state (Gymnasium's `rgb_array`);
+//!   [`observation`]: the state or stacked frames of it as what the agent sees.
 //! - [`scripted`]: hand-written shooter and dribbler, the yardsticks for learners.
 //! - [`geometry`] and [`layout`]: the table's numbers and the observation/action index
 //!   table; [`seeding`]: how every random stream derives from one run seed.
@@ -17,6 +18,7 @@ pub mod env;
 pub mod foosball;
 pub mod geometry;
 pub mod layout;
+pub mod observation;
 pub mod opponent;
 pub mod pendulum;
 pub mod render;
@@ -29,6 +31,7 @@ pub mod vec_env;
 pub use config::{ConfigError, FoosballConfig, OpponentKind, Preset, Randomization};
 pub use env::{Env, EnvError, Transition};
 pub use foosball::{EndReason, FoosballEnv, FoosballInfo};
+pub use observation::{ObservationConfig, ObservationKind};
 pub use opponent::Opponent;
 pub use pendulum::Pendulum;
 pub use vec_env::{VecEnv, VecEnvError, VecStep};

@@ -1,0 +1,225 @@
+//! What the agent observes: the 38-dim state vector, or top-down pictures of the table
+//! drawn by [`crate::render::Renderer`] and stacked over the last few steps.
+//!
+//! An image observation is `[frame_stack * channels, height, width]`, channel-first (the
+//! layout of PyTorch and of SB3 after `VecTransposeImage`), oldest frame first, a
+//! channel being luma (`grayscale`, ITU-R BT.601 weights) or R, G, B. Pixels are bytes;
+//! the env hands them out as `f32` in `[0, 1]` (`byte / 255`, exactly invertible, so
+//! buffers can store the bytes, see [`to_bytes`]). A reset fills the stack with the first
+//! frame (as SB3's `VecFrameStack` after its zero fill is overwritten on the first step).
+
+use serde::{Deserialize, Serialize};
+
+use crate::config::ConfigError;
+use crate::layout::OBS_DIM;
+use crate::render::{Frame, Renderer};
+
+/// The kind of observation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ObservationKind {
+    /// The 38-dim state (positions cm, angles rad, velocities per s).
+    #[default]
+    State,
+    /// Stacked top-down frames.
+    Image,
+}
+
+/// `[env.observation]`: the kind and, for images, their size, colour and stack depth.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ObservationConfig {
+    /// `state` or `image`.
+    pub kind: ObservationKind,
+    /// Frame width, pixels (the table is stretched to fill the frame).
+    pub width: u32,
+    /// Frame height, pixels.
+    pub height: u32,
+    /// One luma channel instead of three colour channels.
+    pub grayscale: bool,
+    /// Frames stacked, oldest first.
+    pub frame_stack: u32,
+}
+
+impl Default for ObservationConfig {
+    /// The state; image settings as SB3's Atari defaults (84 x 84, grey, 4 frames).
+    fn default() -> Self {
+        Self {
+            kind: ObservationKind::State,
+            width: 84,
+            height: 84,
+            grayscale: true,
+            frame_stack: 4,
+        }
+    }
+}
+
+/// The largest frame side, pixels.
+pub const MAX_SIDE: u32 = 512;
+/// The deepest frame stack.
+pub const MAX_STACK: u32 = 16;
+
+impl ObservationConfig {
+    /// Channels of one frame: 1 (grey) or 3 (RGB).
+    pub fn frame_channels(&self) -> usize {
+        if self.grayscale { 1 } else { 3 }
+    }
+
+    /// Channels of an image observation: `frame_stack * frame_channels`.
+    pub fn channels(&self) -> usize {
+        self.frame_stack as usize * self.frame_channels()
+    }
+
+    /// Length of one observation: 38, or `channels * height * width`.
+    pub fn dim(&self) -> usize {
+        match self.kind {
+            ObservationKind::State => OBS_DIM,
+            ObservationKind::Image => self.channels() * self.height as usize * self.width as usize,
+        }
+    }
+
+    /// Checks the image settings (also under `state`, so a file stays valid when its
+    /// kind is switched); keys relative to the section.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        for (key, side) in [("width", self.width), ("height", self.height)] {
+            if !(1..=MAX_SIDE).contains(&side) {
+                return Err(ConfigError::new(
+                    key,
+                    format!("must be 1 to {MAX_SIDE} pixels, got {side}"),
+                ));
+            }
+        }
+        if !(1..=MAX_STACK).contains(&self.frame_stack) {
+            return Err(ConfigError::new(
+                "frame_stack",
+                format!("must be 1 to {MAX_STACK} frames, got {}", self.frame_stack),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// An image observation being built: the renderer and the last `frame_stack` frames as
+/// channel-first bytes.
+#[derive(Debug, Clone)]
+pub struct FrameStack {
+    config: ObservationConfig,
+    renderer: Renderer,
+    /// `[frame_stack][frame_channels * height * width]`, oldest first.
+    frames: Vec<Vec<u8>>,
+}
+
+impl FrameStack {
+    /// An empty stack for `config` (an image kind).
+    pub fn new(config: ObservationConfig) -> Self {
+        Self {
+            config,
+            renderer: Renderer::fit(config.width as usize, config.height as usize),
+            frames: Vec::new(),
+        }
+    }
+
+    /// The frame of `state` as channel-first bytes.
+    pub fn picture(&self, state: &[f32; OBS_DIM]) -> Vec<u8> {
+        channel_first(&self.renderer.draw(state), self.config.grayscale)
+    }
+
+    /// Starts an episode: every slot holds the picture of `state`.
+    pub fn reset(&mut self, state: &[f32; OBS_DIM]) {
+        let first = self.picture(state);
+        self.frames = vec![first; self.config.frame_stack as usize];
+    }
+
+    /// Drops the oldest frame and adds the picture of `state`.
+    pub fn push(&mut self, state: &[f32; OBS_DIM]) {
+        let newest = self.picture(state);
+        if !self.frames.is_empty() {
+            self.frames.remove(0);
+        }
+        self.frames.push(newest);
+    }
+
+    /// Writes the stack into `out` (length [`ObservationConfig::dim`]) as `byte / 255`.
+    pub fn write(&self, out: &mut [f32]) {
+        let bytes = self.frames.iter().flatten();
+        for (o, &b) in out.iter_mut().zip(bytes) {
+            *o = f32::from(b) / 255.0;
+        }
+    }
+}
+
+/// `frame`'s pixels channel-first: `[1, h, w]` luma or `[3, h, w]` RGB.
+pub fn channel_first(frame: &Frame, grayscale: bool) -> Vec<u8> {
+    let n = frame.width * frame.height;
+    let pixels = frame.rgb.chunks_exact(3);
+    if grayscale {
+        pixels
+            .map(|p| {
+                let luma = 299 * u32::from(p[0]) + 587 * u32::from(p[1]) + 114 * u32::from(p[2]);
+                ((luma + 500) / 1000) as u8
+            })
+            .collect()
+    } else {
+        let mut out = vec![0; 3 * n];
+        for (i, p) in pixels.enumerate() {
+            for c in 0..3 {
+                out[c * n + i] = p[c];
+            }
+        }
+        out
+    }
+}
+
+/// Image observation values (`byte / 255`) back to their bytes; exact for values the env
+/// handed out.
+pub fn to_bytes(obs: &[f32]) -> Vec<u8> {
+    obs.iter()
+        .map(|&v| (v.clamp(0.0, 1.0) * 255.0).round() as u8)
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_byte_survives_the_trip_through_f32() {
+        let bytes: Vec<u8> = (0..=255).collect();
+        let values: Vec<f32> = bytes.iter().map(|&b| f32::from(b) / 255.0).collect();
+        assert_eq!(to_bytes(&values), bytes);
+    }
+
+    #[test]
+    fn grey_and_colour_frames_are_channel_first() {
+        let frame = Frame {
+            width: 2,
+            height: 1,
+            rgb: vec![255, 0, 0, 10, 20, 30],
+        };
+        assert_eq!(channel_first(&frame, false), vec![255, 10, 0, 20, 0, 30]);
+        // 0.299 * 255 = 76.2; 0.299 * 10 + 0.587 * 20 + 0.114 * 30 = 18.1.
+        assert_eq!(channel_first(&frame, true), vec![76, 18]);
+    }
+
+    #[test]
+    fn sizes_and_stacks_out_of_range_are_refused_by_key() {
+        let ok = ObservationConfig::default();
+        assert_eq!(ok.validate(), Ok(()));
+        let e = ObservationConfig { width: 0, ..ok }.validate().unwrap_err();
+        assert_eq!(e.key, "width");
+        let e = ObservationConfig { height: 4096, ..ok }
+            .validate()
+            .unwrap_err();
+        assert_eq!(
+            (e.key.as_str(), e.message.as_str()),
+            ("height", "must be 1 to 512 pixels, got 4096")
+        );
+        let e = ObservationConfig {
+            frame_stack: 0,
+            ..ok
+        }
+        .validate()
+        .unwrap_err();
+        assert_eq!(e.key, "frame_stack");
+    }
+}

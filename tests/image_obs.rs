@@ -1,0 +1,164 @@
+//! Image observations: shape, value range and exact bytes, the frame stack's order, the
+//! picture matching the table's state, determinism in VecEnv whatever the thread count,
+//! bad settings refused by key, and a tiny run trained on pixels end to end.
+
+mod common;
+
+use common::{scratch, tiny_config_text};
+use foosball_rl::config::RunConfig;
+use foosball_rl::env::layout::ACTION_DIM;
+use foosball_rl::env::observation::{channel_first, to_bytes};
+use foosball_rl::env::render::Renderer;
+use foosball_rl::env::{
+    Env, FoosballConfig, FoosballEnv, ObservationConfig, ObservationKind, VecEnv,
+};
+use std::path::Path;
+use std::process::Command;
+
+fn image_config(width: u32, height: u32, grayscale: bool, frame_stack: u32) -> FoosballConfig {
+    FoosballConfig {
+        observation: ObservationConfig {
+            kind: ObservationKind::Image,
+            width,
+            height,
+            grayscale,
+            frame_stack,
+        },
+        ..FoosballConfig::default()
+    }
+}
+
+/// A fixed sequence of commands that moves every rod.
+fn action(t: usize) -> [f32; ACTION_DIM] {
+    std::array::from_fn(|k| ((t + k) as f32 * 0.7).sin())
+}
+
+#[test]
+fn an_image_observation_is_the_stack_of_pictures_of_the_state() {
+    let (w, h, stack) = (40, 60, 3);
+    let mut env = FoosballEnv::new(image_config(w, h, true, stack)).unwrap();
+    let frame = (w * h) as usize;
+    assert_eq!(env.obs_dim(), stack as usize * frame);
+    let renderer = Renderer::fit(w as usize, h as usize);
+    let picture = |env: &FoosballEnv| channel_first(&renderer.draw(env.state().unwrap()), true);
+
+    let first = env.reset(Some(7));
+    assert_eq!(first.len(), env.obs_dim());
+    let bytes = to_bytes(&first);
+    assert!(
+        first
+            .iter()
+            .zip(&bytes)
+            .all(|(&v, &b)| v == f32::from(b) / 255.0)
+    );
+    // A reset fills every slot with the first picture.
+    for k in 0..stack as usize {
+        assert_eq!(&bytes[k * frame..(k + 1) * frame], &picture(&env)[..]);
+    }
+    let mut previous = bytes;
+    let mut moved = false;
+    for t in 0..6 {
+        let (obs, tr) = env.step(&action(t)).unwrap();
+        assert!(!tr.done());
+        let now = to_bytes(&obs);
+        // Oldest first: the stack shifts by one frame and the newest is the state's.
+        assert_eq!(&now[..2 * frame], &previous[frame..]);
+        assert_eq!(&now[2 * frame..], &picture(&env)[..]);
+        moved |= now[2 * frame..] != previous[2 * frame..];
+        previous = now;
+    }
+    assert!(moved, "six steps of moving rods changed no pixel");
+}
+
+#[test]
+fn colour_frames_have_three_channels_and_repeat_from_a_seed() {
+    let config = image_config(24, 36, false, 2);
+    let mut a = FoosballEnv::new(config.clone()).unwrap();
+    let mut b = FoosballEnv::new(config).unwrap();
+    assert_eq!(a.obs_dim(), 2 * 3 * 24 * 36);
+    assert_eq!(a.reset(Some(3)), b.reset(Some(3)));
+    for t in 0..5 {
+        assert_eq!(a.step(&action(t)).unwrap().0, b.step(&action(t)).unwrap().0);
+    }
+}
+
+#[test]
+fn image_batches_do_not_depend_on_the_thread_count() {
+    let config = image_config(16, 24, true, 2);
+    let run = |threads: usize| {
+        let envs = (0..3)
+            .map(|_| FoosballEnv::new(config.clone()).unwrap())
+            .collect();
+        let mut venv = VecEnv::new(envs, threads).unwrap();
+        let mut out = venv.reset(11).to_vec();
+        for t in 0..20 {
+            let actions: Vec<f32> = (0..3).flat_map(|i| action(t + i)).collect();
+            out.extend_from_slice(venv.step(&actions).unwrap().obs);
+        }
+        out
+    };
+    let one = run(1);
+    assert_eq!(one.len(), 21 * 3 * 2 * 16 * 24);
+    assert_eq!(run(2), one);
+}
+
+#[test]
+fn bad_observation_settings_are_refused_by_key() {
+    let e = FoosballEnv::new(image_config(0, 84, true, 4))
+        .err()
+        .unwrap();
+    assert_eq!(e.key, "observation.width");
+    let e = FoosballEnv::new(image_config(84, 84, true, 99))
+        .err()
+        .unwrap();
+    assert_eq!(e.key, "observation.frame_stack");
+    let e = toml::from_str::<FoosballConfig>("[observation]\nkind = \"pixels\"\n").unwrap_err();
+    assert!(
+        e.message().contains("unknown variant `pixels`"),
+        "{}",
+        e.message()
+    );
+}
+
+#[test]
+fn a_tiny_run_trains_on_pixels_and_records_states() {
+    let dir = scratch("image-train");
+    let config = dir.join("sac-image.toml");
+    let text = tiny_config_text("sac", 1, 150)
+        + "[env.observation]\nkind = \"image\"\nwidth = 12\nheight = 20\nframe_stack = 2\n";
+    std::fs::write(&config, text).unwrap();
+    let run = dir.join("run");
+    let o = Command::new(env!("CARGO_BIN_EXE_train"))
+        .args([
+            "--config",
+            config.to_str().unwrap(),
+            "--out",
+            run.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let saved = RunConfig::load_run(&run).unwrap();
+    assert_eq!(saved.env.observation.dim(), 2 * 12 * 20);
+    // The test's trajectories hold the table's 38-dim states, not the pixels.
+    let episodes =
+        foosball_rl::run_dir::read_trajectories(&run.join("test/trajectories.bin")).unwrap();
+    assert_eq!(episodes.len(), 3);
+    for e in &episodes {
+        assert_eq!(e.trajectory.obs.len(), 38 * e.trajectory.rewards.len());
+    }
+    // A scripted policy cannot read pixels: refused by key.
+    let o = Command::new(env!("CARGO_BIN_EXE_evaluate"))
+        .args(["--policy", "shooter", "--config", config.to_str().unwrap()])
+        .args(["--episodes", "1", "--out", dir.join("b").to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("env.observation.kind: shooter reads the 38-dim state"),
+        "{err}"
+    );
+    assert!(!Path::new(&dir.join("b/metrics.json")).exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
