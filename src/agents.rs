@@ -5,17 +5,30 @@ use crate::train::TrainError;
 use foosball_algos::{Agent, Ppo, Sac, Td3};
 use foosball_env::layout;
 use foosball_env::seeding::{LEARNER, derive_seed};
-use foosball_nets::{Backend, Device};
+use foosball_env::{ObservationConfig, ObservationKind};
+use foosball_nets::{Backend, Device, ObsShape};
 
 /// The agent `config` asks for, its networks drawn from the learner stream; its input is
-/// the observation `config.env` gives (38 state values, or an image's pixels flattened).
+/// the observation `config.env` gives (38 state values, or an image through a CNN).
 pub fn build_agent(config: &RunConfig, device: &Device) -> Box<dyn Agent + Send> {
     let seed = derive_seed(config.protocol.seed, LEARNER, 0);
-    let (o, a) = (config.env.observation.dim(), layout::ACTION_DIM);
+    let (o, a) = (obs_shape(&config.env.observation), layout::ACTION_DIM);
     match &config.algorithm {
         AlgoConfig::Ppo(c) => Box::new(Ppo::new(o, a, c.clone(), seed, device)),
         AlgoConfig::Sac(c) => Box::new(Sac::agent(o, a, c.clone(), seed, device)),
         AlgoConfig::Td3(c) => Box::new(Td3::agent(o, a, c.clone(), seed, device)),
+    }
+}
+
+/// The networks' view of the observation `observation` configures.
+pub fn obs_shape(observation: &ObservationConfig) -> ObsShape {
+    match observation.kind {
+        ObservationKind::State => ObsShape::Vector(observation.dim()),
+        ObservationKind::Image => ObsShape::Image {
+            channels: observation.channels(),
+            height: observation.height as usize,
+            width: observation.width as usize,
+        },
     }
 }
 

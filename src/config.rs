@@ -3,7 +3,7 @@
 //! with the file, the line and the dotted key.
 
 use foosball_algos::{NetConfig, OffPolicyConfig, PpoConfig, SacConfig, Td3Config};
-use foosball_env::{ConfigError, FoosballConfig};
+use foosball_env::{ConfigError, FoosballConfig, ObservationKind};
 use foosball_nets::Backend;
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
@@ -406,7 +406,17 @@ impl RunConfig {
             ));
         }
         self.env.validate().map_err(|e| e.under("env"))?;
-        self.algorithm.validate()
+        self.algorithm.validate()?;
+        let o = &self.env.observation;
+        if o.kind == ObservationKind::Image {
+            let (h, w) = (o.height as usize, o.width as usize);
+            self.algorithm
+                .net()
+                .cnn
+                .conv_output(o.channels(), h, w)
+                .map_err(|e| ConfigError::new(format!("{}.net.cnn", self.algo()), e))?;
+        }
+        Ok(())
     }
 
     /// The algorithm to train.

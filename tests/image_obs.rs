@@ -1,6 +1,6 @@
 //! Image observations: shape, value range and exact bytes, the frame stack's order, the
 //! picture matching the table's state, determinism in VecEnv whatever the thread count,
-//! bad settings refused by key, and a tiny run trained on pixels end to end.
+//! bad settings refused by key, and a tiny run trained on pixels through a CNN end to end.
 
 mod common;
 
@@ -124,9 +124,17 @@ fn bad_observation_settings_are_refused_by_key() {
 fn a_tiny_run_trains_on_pixels_and_records_states() {
     let dir = scratch("image-train");
     let config = dir.join("sac-image.toml");
-    let text = tiny_config_text("sac", 1, 150)
-        + "[env.observation]\nkind = \"image\"\nwidth = 12\nheight = 20\nframe_stack = 2\n";
-    std::fs::write(&config, text).unwrap();
+    let image = "[env.observation]\nkind = \"image\"\nwidth = 12\nheight = 20\nframe_stack = 2\n";
+    // SB3's NatureCNN needs at least 36 x 36 pixels: refused by key.
+    std::fs::write(&config, tiny_config_text("sac", 1, 150) + image).unwrap();
+    let e = RunConfig::load(&config).unwrap_err().to_string();
+    assert!(
+        e.contains("sac.net.cnn: convs[1]: a 4x4 kernel does not fit the 4x2 input of this layer (image 20x12)"),
+        "{e}"
+    );
+    let small_cnn =
+        "[sac.net.cnn]\nconvs = [{ channels = 4, kernel = 3, stride = 2 }]\nfeatures = 16\n";
+    std::fs::write(&config, tiny_config_text("sac", 1, 150) + image + small_cnn).unwrap();
     let run = dir.join("run");
     let o = Command::new(env!("CARGO_BIN_EXE_train"))
         .args([

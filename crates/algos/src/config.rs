@@ -2,7 +2,7 @@
 //! off-policy replay schedule of SAC and TD3. Defaults are Stable-Baselines3's.
 
 use crate::schedule::LrSchedule;
-use foosball_nets::{Activation, AdamConfig};
+use foosball_nets::{Activation, AdamConfig, CnnConfig, ObsShape};
 
 /// An invalid setting; `key` is its dotted path inside the algorithm's section (the
 /// environment's error type, shared by every configuration of the project).
@@ -38,6 +38,9 @@ pub struct NetConfig {
     pub lr: LrSchedule,
     /// Adam's betas, epsilon and global-norm gradient clipping.
     pub adam: AdamConfig,
+    /// The CNN in front of every network when observations are images (SB3's NatureCNN
+    /// by default; each network has its own, the twin critics share one).
+    pub cnn: CnnConfig,
 }
 
 impl Default for NetConfig {
@@ -47,6 +50,7 @@ impl Default for NetConfig {
             activation: Activation::Relu,
             lr: LrSchedule::Constant(3e-4),
             adam: AdamConfig::default(),
+            cnn: CnnConfig::default(),
         }
     }
 }
@@ -55,16 +59,17 @@ impl NetConfig {
     /// The initialiser of an agent's networks with these hidden layers.
     pub fn init<'a, R: rand::Rng>(
         &'a self,
-        obs_dim: usize,
+        obs: ObsShape,
         action_dim: usize,
         rng: &'a mut R,
         device: &'a foosball_nets::Device,
     ) -> foosball_nets::NetInit<'a, R> {
         foosball_nets::NetInit {
-            obs_dim,
+            obs,
             action_dim,
             hidden: &self.hidden,
             activation: self.activation,
+            cnn: &self.cnn,
             rng,
             device,
         }
@@ -96,7 +101,9 @@ impl NetConfig {
             .adam
             .max_grad_norm
             .is_none_or(|n| n.is_finite() && n > 0.0);
-        ensure(norm_ok, "adam.max_grad_norm", "must be finite and positive")
+        ensure(norm_ok, "adam.max_grad_norm", "must be finite and positive")?;
+        // Whether the layers fit the image is checked against the observation.
+        self.cnn.validate().map_err(|e| ConfigError::new("cnn", e))
     }
 }
 

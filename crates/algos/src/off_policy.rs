@@ -6,7 +6,7 @@ use crate::agent::{ActMode, Agent, AgentError, Experience, Metrics};
 use crate::config::OffPolicyConfig;
 use crate::replay::{ReplayBatch, ReplayBuffer};
 use crate::schedule::LrSchedule;
-use foosball_nets::{Snapshot, SnapshotError};
+use foosball_nets::{ObsShape, Snapshot, SnapshotError};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use std::path::Path;
@@ -44,15 +44,16 @@ pub struct OffPolicy<L> {
 }
 
 impl<L: OffPolicyLearner> OffPolicy<L> {
-    /// Wraps `learner` for an env of `obs_dim`/`action_dim`, trained on `schedule` with
+    /// Wraps `learner` for an env of `obs`/`action_dim`, trained on `schedule` with
     /// learning rate `lr`; `rng` draws random actions, minibatches and noise.
     pub fn new(
         learner: L,
-        (obs_dim, action_dim): (usize, usize),
+        (obs, action_dim): (ObsShape, usize),
         schedule: OffPolicyConfig,
         lr: LrSchedule,
         rng: ChaCha8Rng,
     ) -> Self {
+        let obs_dim = obs.dim();
         let buffer = ReplayBuffer::new(schedule.buffer_size, obs_dim, action_dim);
         Self {
             learner,

@@ -16,8 +16,8 @@ use burn::module::Module;
 use foosball_nets::distributions::diag_gaussian_log_prob;
 use foosball_nets::store::{load_module, save_module};
 use foosball_nets::{
-    Activation, Adam, AdamConfig, Device, GaussianPolicy, Snapshot, SnapshotError, Tensor,
-    ValueCritic,
+    Activation, Adam, AdamConfig, CnnConfig, Device, GaussianPolicy, ObsShape, Snapshot,
+    SnapshotError, Tensor, ValueCritic,
 };
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
@@ -63,6 +63,7 @@ impl Default for PpoConfig {
                     max_grad_norm: Some(0.5),
                     ..AdamConfig::default()
                 },
+                cnn: CnnConfig::default(),
             },
             n_steps: 2048,
             batch_size: 64,
@@ -199,15 +200,17 @@ impl Ppo {
     /// Networks drawn from `seed` in a fixed order (policy, value) on `device` (an
     /// autodiff device).
     pub fn new(
-        obs_dim: usize,
+        obs: impl Into<ObsShape>,
         action_dim: usize,
         config: PpoConfig,
         seed: u64,
         device: &Device,
     ) -> Self {
+        let obs = obs.into();
+        let obs_dim = obs.dim();
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let n = &config.net;
-        let mut init = n.init(obs_dim, action_dim, &mut rng, device);
+        let mut init = n.init(obs, action_dim, &mut rng, device);
         let policy = GaussianPolicy::new(&mut init);
         let value = ValueCritic::new(&mut init);
         Self {

@@ -17,7 +17,8 @@ use crate::tensors::{host, matrix, mean, standard_normal, vector};
 use burn::module::{Module, Param};
 use foosball_nets::store::{load_module, save_module};
 use foosball_nets::{
-    Adam, Device, Snapshot, SnapshotError, SquashedGaussianActor, Tensor, TwinQ, polyak_update,
+    Adam, Device, ObsShape, Snapshot, SnapshotError, SquashedGaussianActor, Tensor, TwinQ,
+    polyak_update,
 };
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -156,15 +157,17 @@ impl Sac {
     /// Networks drawn from `seed` in a fixed order (actor, critic; the target is a copy)
     /// on `device` (an autodiff device).
     pub fn agent(
-        obs_dim: usize,
+        obs: impl Into<ObsShape>,
         action_dim: usize,
         config: SacConfig,
         seed: u64,
         device: &Device,
     ) -> SacAgent {
+        let obs = obs.into();
+        let obs_dim = obs.dim();
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let n = &config.net;
-        let mut init = n.init(obs_dim, action_dim, &mut rng, device);
+        let mut init = n.init(obs, action_dim, &mut rng, device);
         let actor = SquashedGaussianActor::new(&mut init);
         let critic = TwinQ::new(&mut init);
         let critic_target = critic.clone().no_grad();
@@ -184,7 +187,7 @@ impl Sac {
             config,
         };
         let (schedule, lr) = (learner.config.off_policy.clone(), learner.config.net.lr);
-        OffPolicy::new(learner, (obs_dim, action_dim), schedule, lr, rng)
+        OffPolicy::new(learner, (obs, action_dim), schedule, lr, rng)
     }
 
     fn target_entropy(&self) -> f32 {

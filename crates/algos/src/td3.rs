@@ -18,7 +18,8 @@ use crate::tensors::{host, matrix, mean, standard_normal, vector};
 use burn::module::Module;
 use foosball_nets::store::{load_module, save_module};
 use foosball_nets::{
-    Adam, DeterministicActor, Device, Snapshot, SnapshotError, Tensor, TwinQ, polyak_update,
+    Adam, DeterministicActor, Device, ObsShape, Snapshot, SnapshotError, Tensor, TwinQ,
+    polyak_update,
 };
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -119,15 +120,17 @@ impl Td3 {
     /// Networks drawn from `seed` in a fixed order (actor, critic; targets are copies)
     /// on `device` (an autodiff device).
     pub fn agent(
-        obs_dim: usize,
+        obs: impl Into<ObsShape>,
         action_dim: usize,
         config: Td3Config,
         seed: u64,
         device: &Device,
     ) -> Td3Agent {
+        let obs = obs.into();
+        let obs_dim = obs.dim();
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let n = &config.net;
-        let mut init = n.init(obs_dim, action_dim, &mut rng, device);
+        let mut init = n.init(obs, action_dim, &mut rng, device);
         let actor = DeterministicActor::new(&mut init);
         let critic = TwinQ::new(&mut init);
         let learner = Td3 {
@@ -145,7 +148,7 @@ impl Td3 {
             config,
         };
         let (schedule, lr) = (learner.config.off_policy.clone(), learner.config.net.lr);
-        OffPolicy::new(learner, (obs_dim, action_dim), schedule, lr, rng)
+        OffPolicy::new(learner, (obs, action_dim), schedule, lr, rng)
     }
 
     /// The actor.
@@ -213,12 +216,7 @@ impl OffPolicyLearner for Td3 {
 
         // 3. Delayed actor and target updates.
         if self.gradient_steps.is_multiple_of(c.policy_delay) {
-            let q_pi = self
-                .critic
-                .q1
-                .clone()
-                .no_grad()
-                .forward(obs.clone(), self.actor.forward(obs));
+            let q_pi = self.critic.q1_frozen(obs.clone(), self.actor.forward(obs));
             let actor_loss = q_pi.mean().neg();
             self.last_actor_loss = mean(actor_loss.clone().inner());
             let mut grads = actor_loss.backward();

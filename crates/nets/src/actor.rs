@@ -1,5 +1,6 @@
 //! Policies: SAC's squashed Gaussian, TD3's deterministic tanh actor and PPO's Gaussian.
 
+use crate::cnn::Encoder;
 use crate::distributions::{
     diag_gaussian_entropy, diag_gaussian_log_prob, squashed_gaussian_log_prob,
 };
@@ -15,23 +16,26 @@ pub const LOG_STD_MIN: f32 = -20.0;
 /// Upper clamp of SAC's log standard deviation (SB3's `LOG_STD_MAX`).
 pub const LOG_STD_MAX: f32 = 2.0;
 
-/// SAC's actor: an MLP whose output layer holds the mean and the log standard deviation
-/// of `u` (equivalent to SB3's two linear heads on a shared trunk); actions are `tanh(u)`.
+/// SAC's actor: an MLP (behind its own encoder, see [`crate::cnn`]) whose output layer
+/// holds the mean and the log standard deviation of `u` (equivalent to SB3's two linear
+/// heads on a shared trunk); actions are `tanh(u)`.
 #[derive(Module, Debug)]
 pub struct SquashedGaussianActor {
+    encoder: Encoder,
     net: Mlp,
 }
 
 impl SquashedGaussianActor {
-    /// Parameters drawn next from `init`'s RNG.
+    /// Parameters drawn next from `init`'s RNG (its encoder first).
     pub fn new(init: &mut NetInit<'_, impl Rng>) -> Self {
-        let net = init.mlp(init.obs_dim, 2 * init.action_dim);
-        Self { net }
+        let (encoder, features) = init.encoder();
+        let net = init.mlp(features, 2 * init.action_dim);
+        Self { encoder, net }
     }
 
     /// Mean and clamped log standard deviation of `u`, each `[batch, action_dim]`.
     pub fn distribution(&self, obs: Tensor<2>) -> (Tensor<2>, Tensor<2>) {
-        let out = self.net.forward(obs);
+        let out = self.net.forward(self.encoder.forward(obs));
         let action_dim = out.dims()[1] / 2;
         let mean = out.clone().narrow(1, 0, action_dim);
         let log_std = out
@@ -58,19 +62,21 @@ impl SquashedGaussianActor {
 /// TD3's actor: `tanh(mlp(obs))`, `[batch, obs_dim] -> [batch, action_dim]`.
 #[derive(Module, Debug)]
 pub struct DeterministicActor {
+    encoder: Encoder,
     net: Mlp,
 }
 
 impl DeterministicActor {
-    /// Parameters drawn next from `init`'s RNG.
+    /// Parameters drawn next from `init`'s RNG (its encoder first).
     pub fn new(init: &mut NetInit<'_, impl Rng>) -> Self {
-        let net = init.mlp(init.obs_dim, init.action_dim);
-        Self { net }
+        let (encoder, features) = init.encoder();
+        let net = init.mlp(features, init.action_dim);
+        Self { encoder, net }
     }
 
     /// Actions in `[-1, 1]`, `[batch, action_dim]`.
     pub fn forward(&self, obs: Tensor<2>) -> Tensor<2> {
-        tanh(self.net.forward(obs))
+        tanh(self.net.forward(self.encoder.forward(obs)))
     }
 }
 
@@ -79,21 +85,27 @@ impl DeterministicActor {
 /// Actions are unbounded; the caller clips them to `[-1, 1]` for the env.
 #[derive(Module, Debug)]
 pub struct GaussianPolicy {
+    encoder: Encoder,
     net: Mlp,
     log_std: Param<Tensor<1>>,
 }
 
 impl GaussianPolicy {
-    /// Parameters drawn next from `init`'s RNG.
+    /// Parameters drawn next from `init`'s RNG (its encoder first).
     pub fn new(init: &mut NetInit<'_, impl Rng>) -> Self {
-        let net = init.mlp(init.obs_dim, init.action_dim);
+        let (encoder, features) = init.encoder();
+        let net = init.mlp(features, init.action_dim);
         let log_std = Param::from_tensor(Tensor::zeros([init.action_dim], init.device));
-        Self { net, log_std }
+        Self {
+            encoder,
+            net,
+            log_std,
+        }
     }
 
     /// Mean and log standard deviation, each `[batch, action_dim]`.
     pub fn distribution(&self, obs: Tensor<2>) -> (Tensor<2>, Tensor<2>) {
-        let mean = self.net.forward(obs);
+        let mean = self.net.forward(self.encoder.forward(obs));
         let log_std = self.log_std.val().unsqueeze::<2>().expand(mean.dims());
         (mean, log_std)
     }

@@ -1,35 +1,41 @@
-//! Critics: the state-action value `Q(s, a)`, SAC/TD3's twin pair, and PPO's `V(s)`.
+//! Critics: the state-action value `Q(s, a)`, SAC/TD3's twin pair, and PPO's `V(s)`,
+//! each behind an observation encoder (see [`crate::cnn`]).
 
+use crate::cnn::Encoder;
 use crate::init::NetInit;
 use crate::mlp::Mlp;
 use burn::module::Module;
 use burn::tensor::Tensor;
 use rand::Rng;
 
-/// `Q(s, a) = mlp([s, a])`: `[batch, obs_dim]`, `[batch, action_dim] -> [batch]`.
+/// `Q(s, a) = mlp([features(s), a])`: `[batch, features]`, `[batch, action_dim] ->
+/// [batch]` (the features are the observation itself, or its encoding by the critic's
+/// shared encoder).
 #[derive(Module, Debug)]
 pub struct QNetwork {
     net: Mlp,
 }
 
 impl QNetwork {
-    /// Parameters drawn next from `init`'s RNG.
-    pub fn new(init: &mut NetInit<'_, impl Rng>) -> Self {
-        let net = init.mlp(init.obs_dim + init.action_dim, 1);
+    /// Parameters drawn next from `init`'s RNG, for `features`-wide inputs.
+    pub fn new(init: &mut NetInit<'_, impl Rng>, features: usize) -> Self {
+        let net = init.mlp(features + init.action_dim, 1);
         Self { net }
     }
 
     /// Values `[batch]`.
-    pub fn forward(&self, obs: Tensor<2>, actions: Tensor<2>) -> Tensor<1> {
+    pub fn forward(&self, features: Tensor<2>, actions: Tensor<2>) -> Tensor<1> {
         self.net
-            .forward(Tensor::cat(vec![obs, actions], 1))
+            .forward(Tensor::cat(vec![features, actions], 1))
             .squeeze_dim(1)
     }
 }
 
-/// Two independently initialised Q-networks (clipped double-Q of SAC and TD3).
+/// Two independently initialised Q-networks (clipped double-Q of SAC and TD3) behind one
+/// encoder, as SB3's `ContinuousCritic` shares its features extractor.
 #[derive(Module, Debug)]
 pub struct TwinQ {
+    encoder: Encoder,
     /// The first critic; TD3's actor is trained against it alone.
     pub q1: QNetwork,
     /// The second critic.
@@ -37,17 +43,26 @@ pub struct TwinQ {
 }
 
 impl TwinQ {
-    /// `q1` is drawn before `q2`.
+    /// The encoder is drawn first, then `q1`, then `q2`.
     pub fn new(init: &mut NetInit<'_, impl Rng>) -> Self {
-        let q1 = QNetwork::new(init);
-        let q2 = QNetwork::new(init);
-        Self { q1, q2 }
+        let (encoder, features) = init.encoder();
+        let q1 = QNetwork::new(init, features);
+        let q2 = QNetwork::new(init, features);
+        Self { encoder, q1, q2 }
     }
 
     /// Both values, each `[batch]`.
     pub fn forward(&self, obs: Tensor<2>, actions: Tensor<2>) -> (Tensor<1>, Tensor<1>) {
-        let q1 = self.q1.forward(obs.clone(), actions.clone());
-        (q1, self.q2.forward(obs, actions))
+        let features = self.encoder.forward(obs);
+        let q1 = self.q1.forward(features.clone(), actions.clone());
+        (q1, self.q2.forward(features, actions))
+    }
+
+    /// `Q1(s, a)` alone with the critic's parameters frozen (gradients reach `actions`,
+    /// not the critic), `[batch]`: TD3's actor loss.
+    pub fn q1_frozen(&self, obs: Tensor<2>, actions: Tensor<2>) -> Tensor<1> {
+        let features = self.encoder.clone().no_grad().forward(obs);
+        self.q1.clone().no_grad().forward(features, actions)
     }
 
     /// `min(Q1, Q2)`, `[batch]`.
@@ -57,21 +72,23 @@ impl TwinQ {
     }
 }
 
-/// PPO's state value `V(s) = mlp(s)`: `[batch, obs_dim] -> [batch]`.
+/// PPO's state value `V(s) = mlp(features(s))`: `[batch, obs_dim] -> [batch]`.
 #[derive(Module, Debug)]
 pub struct ValueCritic {
+    encoder: Encoder,
     net: Mlp,
 }
 
 impl ValueCritic {
-    /// Parameters drawn next from `init`'s RNG.
+    /// Parameters drawn next from `init`'s RNG (its encoder first).
     pub fn new(init: &mut NetInit<'_, impl Rng>) -> Self {
-        let net = init.mlp(init.obs_dim, 1);
-        Self { net }
+        let (encoder, features) = init.encoder();
+        let net = init.mlp(features, 1);
+        Self { encoder, net }
     }
 
     /// Values `[batch]`.
     pub fn forward(&self, obs: Tensor<2>) -> Tensor<1> {
-        self.net.forward(obs).squeeze_dim(1)
+        self.net.forward(self.encoder.forward(obs)).squeeze_dim(1)
     }
 }

@@ -33,17 +33,20 @@ pub fn linear(d_in: usize, d_out: usize, rng: &mut impl Rng, device: &Device) ->
 }
 
 /// Everything an agent's networks are drawn from: the env's sizes, the hidden layers
-/// shared by all its networks, their activation, the seeded RNG and the device.
-/// Networks built from one `NetInit` draw from the RNG in construction order.
+/// shared by all its networks, their activation, the image encoder's layers, the seeded
+/// RNG and the device. Networks built from one `NetInit` draw from the RNG in
+/// construction order.
 pub struct NetInit<'a, R: Rng> {
-    /// Observation width.
-    pub obs_dim: usize,
+    /// Observation shape.
+    pub obs: crate::ObsShape,
     /// Action width.
     pub action_dim: usize,
     /// Hidden layer widths.
     pub hidden: &'a [usize],
     /// Non-linearity between hidden layers.
     pub activation: crate::Activation,
+    /// The CNN in front of each network when the observation is an image.
+    pub cnn: &'a crate::CnnConfig,
     /// Where parameters are drawn from.
     pub rng: &'a mut R,
     /// Where parameters live (an autodiff device to train them).
@@ -51,6 +54,19 @@ pub struct NetInit<'a, R: Rng> {
 }
 
 impl<R: Rng> NetInit<'_, R> {
+    /// An observation encoder drawn next from the RNG (nothing for a vector) and the
+    /// width of what it outputs.
+    ///
+    /// # Panics
+    /// If the CNN does not fit the image; check with [`crate::CnnConfig::conv_output`]
+    /// first (run configurations do).
+    pub fn encoder(&mut self) -> (crate::Encoder, usize) {
+        let encoder = crate::Encoder::new(self.obs, self.cnn, self.rng, self.device)
+            .unwrap_or_else(|e| panic!("cnn: {e}"));
+        let width = encoder.output_dim(self.obs);
+        (encoder, width)
+    }
+
     /// An MLP `input -> hidden -> output` drawn next from the RNG.
     pub fn mlp(&mut self, input: usize, output: usize) -> crate::Mlp {
         crate::Mlp::new(

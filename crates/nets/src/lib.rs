@@ -1,4 +1,5 @@
-//! Burn networks for foosball-rl: the MLP and the actor/critic heads of PPO, SAC and TD3,
+//! Burn networks for foosball-rl: the MLP, the image encoder (NatureCNN) and the
+//! actor/critic heads of PPO, SAC and TD3,
 //! the action distributions, parameter-wise utilities (polyak averaging, flat views),
 //! Adam with PyTorch's epsilon and global-norm gradient clipping, backend selection, and
 //! files for networks (Burn records) and the rest of the training state (snapshots).
@@ -11,6 +12,7 @@
 pub mod actor;
 pub mod atomic_file;
 pub mod backend;
+pub mod cnn;
 pub mod critic;
 pub mod distributions;
 pub mod host;
@@ -25,6 +27,7 @@ pub use actor::{DeterministicActor, GaussianPolicy, SquashedGaussianActor};
 pub use backend::{Backend, BackendError};
 pub use burn;
 pub use burn::tensor::{Device, Tensor, TensorData};
+pub use cnn::{CnnConfig, ConvLayer, Encoder, ObsShape};
 pub use critic::{QNetwork, TwinQ, ValueCritic};
 pub use init::NetInit;
 pub use mlp::{Activation, Mlp};
