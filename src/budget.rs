@@ -8,7 +8,7 @@ use crate::config::{Algo, AlgoConfig, RunConfig};
 use crate::train::TrainError;
 use foosball_algos::{ActMode, Experience, SacConfig, Td3Config};
 use foosball_env::layout::ACTION_DIM;
-use foosball_env::{Env, FoosballEnv};
+use foosball_env::{Env, FoosballEnv, ObservationKind};
 use std::time::{Duration, Instant};
 
 /// Wall time a run is estimated to need, from timings on this machine.
@@ -140,23 +140,55 @@ fn mlp_params(input: usize, hidden: &[usize], output: usize) -> f64 {
     widths.windows(2).map(|w| w[0] * w[1] + w[1]).sum()
 }
 
-/// Estimated bytes the run's learner holds: f32 parameters of every network, and for each
-/// trained one its gradient and two Adam moments, plus the replay buffer's rows (f32
-/// observation and next observation: image observations count every pixel).
+/// Parameters of a network's observation encoder (none for the state, the CNN for an
+/// image) and the width it hands the MLP.
+fn encoder_params(config: &RunConfig) -> (f64, usize) {
+    let o = &config.env.observation;
+    if o.kind == ObservationKind::State {
+        return (0.0, o.dim());
+    }
+    let cnn = &config.algorithm.net().cnn;
+    let mut params = 0.0;
+    let mut channels = o.channels();
+    for l in &cnn.convs {
+        params += (channels * l.kernel * l.kernel * l.channels + l.channels) as f64;
+        channels = l.channels;
+    }
+    let [c, h, w] = cnn
+        .conv_output(o.channels(), o.height as usize, o.width as usize)
+        .unwrap_or([0, 0, 0]);
+    (
+        params + mlp_params(c * h * w, &[], cnn.features),
+        cnn.features,
+    )
+}
+
+/// Estimated bytes the run's learner holds: f32 parameters of every network (an image's
+/// CNN per actor and per critic pair), and for each trained one its gradient and two Adam
+/// moments, plus the replay buffer's rows (observation and next observation: bytes for an
+/// image, f32 otherwise) or PPO's rollout.
 pub fn learner_bytes(config: &RunConfig) -> f64 {
     let (o, a, h) = (config.env.observation.dim(), ACTION_DIM, config.hidden());
-    let q = mlp_params(o + a, h, 1);
-    let buffer = config.algorithm.off_policy().map_or(0, |c| c.buffer_size);
+    let (enc, f) = encoder_params(config);
+    let twin = enc + 2.0 * mlp_params(f + a, h, 1);
+    let actor = |out| enc + mlp_params(f, h, out);
     let (trained, targets) = match config.algo() {
-        Algo::Ppo => (mlp_params(o, h, a) + mlp_params(o, h, 1), 0.0),
-        Algo::Sac => (mlp_params(o, h, 2 * a) + 2.0 * q, 2.0 * q),
-        Algo::Td3 => {
-            let actor = mlp_params(o, h, a);
-            (actor + 2.0 * q, actor + 2.0 * q)
+        Algo::Ppo => (actor(a) + actor(1), 0.0),
+        Algo::Sac => (actor(2 * a) + twin, twin),
+        Algo::Td3 => (actor(a) + twin, actor(a) + twin),
+    };
+    let obs_bytes = match config.env.observation.kind {
+        ObservationKind::State => 4,
+        ObservationKind::Image => 1,
+    };
+    let rows = match &config.algorithm {
+        AlgoConfig::Ppo(p) => ((p.n_steps * config.protocol.envs) * 4 * (o + a + 6)) as f64,
+        _ => {
+            let buffer = config.algorithm.off_policy().map_or(0, |c| c.buffer_size);
+            (buffer * (2 * o * obs_bytes + 4 * (a + 2))) as f64
         }
     };
-    let row = (2 * o + a + 2) as f64;
-    4.0 * (4.0 * trained + targets + buffer as f64 * row)
+    4.0 * (4.0 * trained + targets) + rows
 }
 
 /// Memory this machine has available now, bytes (`MemAvailable` of /proc/meminfo), or
@@ -219,11 +251,11 @@ mod tests {
         let text = "algo = \"sac\"\n[sac.net]\nhidden = [64, 64]\n\
                     [env.observation]\nkind = \"image\"\n";
         let mut c = RunConfig::from_toml(text, std::path::Path::new("x.toml")).unwrap();
-        // 1e6 rows of two 4 x 84 x 84 observations in f32: ~226 GB.
+        // 1e6 rows of two 4 x 84 x 84 observations in bytes: ~56 GB.
         let e = check(&c, Some(24.0 * (1u64 << 30) as f64)).unwrap_err();
         assert!(e.contains("1000000 observations of 28224 values"), "{e}");
         if let AlgoConfig::Sac(s) = &mut c.algorithm {
-            s.off_policy.buffer_size = 20_000;
+            s.off_policy.buffer_size = 100_000;
         }
         check(&c, Some(24.0 * (1u64 << 30) as f64)).unwrap();
     }

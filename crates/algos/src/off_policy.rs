@@ -54,7 +54,7 @@ impl<L: OffPolicyLearner> OffPolicy<L> {
         rng: ChaCha8Rng,
     ) -> Self {
         let obs_dim = obs.dim();
-        let buffer = ReplayBuffer::new(schedule.buffer_size, obs_dim, action_dim);
+        let buffer = ReplayBuffer::for_obs(schedule.buffer_size, obs, action_dim);
         Self {
             learner,
             obs_dim,

@@ -1,6 +1,8 @@
-//! The replay buffer shared by SAC and TD3: a pre-allocated ring of flat `f32` rows.
+//! The replay buffer shared by SAC and TD3: a pre-allocated ring of flat rows, its
+//! observations as `f32`, or for images as bytes (a quarter of the memory; images arrive
+//! as `byte / 255`, so the bytes give back the very same floats).
 
-use foosball_nets::{Snapshot, SnapshotError};
+use foosball_nets::{ObsShape, Snapshot, SnapshotError};
 use rand::Rng;
 
 /// One uniformly sampled minibatch, row-major: `obs`/`next_obs` `[batch, obs_dim]`,
@@ -27,8 +29,8 @@ pub struct ReplayBuffer {
     obs_dim: usize,
     action_dim: usize,
     capacity: usize,
-    obs: Vec<f32>,
-    next_obs: Vec<f32>,
+    obs: ObsRows,
+    next_obs: ObsRows,
     actions: Vec<f32>,
     rewards: Vec<f32>,
     terminated: Vec<bool>,
@@ -41,13 +43,23 @@ impl ReplayBuffer {
     /// An empty buffer of `capacity` rows (zeroed memory is committed by the OS as rows
     /// are written, so a 1e6 buffer costs little until it fills).
     pub fn new(capacity: usize, obs_dim: usize, action_dim: usize) -> Self {
+        Self::with_storage(capacity, obs_dim, action_dim, false)
+    }
+
+    /// [`ReplayBuffer::new`] for observations of `shape`: images are stored as bytes.
+    pub fn for_obs(capacity: usize, shape: ObsShape, action_dim: usize) -> Self {
+        let bytes = matches!(shape, ObsShape::Image { .. });
+        Self::with_storage(capacity, shape.dim(), action_dim, bytes)
+    }
+
+    fn with_storage(capacity: usize, obs_dim: usize, action_dim: usize, bytes: bool) -> Self {
         assert!(capacity > 0, "replay capacity must be positive");
         Self {
             obs_dim,
             action_dim,
             capacity,
-            obs: vec![0.0; capacity * obs_dim],
-            next_obs: vec![0.0; capacity * obs_dim],
+            obs: ObsRows::new(capacity * obs_dim, bytes),
+            next_obs: ObsRows::new(capacity * obs_dim, bytes),
             actions: vec![0.0; capacity * action_dim],
             rewards: vec![0.0; capacity],
             terminated: vec![false; capacity],
@@ -89,8 +101,8 @@ impl ReplayBuffer {
         timeout: bool,
     ) {
         let (o, a, i) = (self.obs_dim, self.action_dim, self.pos);
-        self.obs[i * o..(i + 1) * o].copy_from_slice(obs);
-        self.next_obs[i * o..(i + 1) * o].copy_from_slice(next_obs);
+        self.obs.write(i * o, obs);
+        self.next_obs.write(i * o, next_obs);
         self.actions[i * a..(i + 1) * a].copy_from_slice(action);
         self.rewards[i] = reward;
         self.terminated[i] = terminated;
@@ -105,8 +117,9 @@ impl ReplayBuffer {
         let (o, a, n) = (self.obs_dim, self.action_dim, self.len);
         snap.put_u64(format!("{prefix}.len"), n as u64);
         snap.put_u64(format!("{prefix}.pos"), self.pos as u64);
-        snap.put_f32(format!("{prefix}.obs"), &self.obs[..n * o]);
-        snap.put_f32(format!("{prefix}.next_obs"), &self.next_obs[..n * o]);
+        self.obs.save(snap, format!("{prefix}.obs"), n * o);
+        self.next_obs
+            .save(snap, format!("{prefix}.next_obs"), n * o);
         snap.put_f32(format!("{prefix}.actions"), &self.actions[..n * a]);
         snap.put_f32(format!("{prefix}.rewards"), &self.rewards[..n]);
         snap.put_bools(format!("{prefix}.terminated"), &self.terminated[..n]);
@@ -131,8 +144,8 @@ impl ReplayBuffer {
         }
         let terminated = snap.bools_of_len(&key("terminated"), n)?;
         let timeouts = snap.bools_of_len(&key("timeouts"), n)?;
-        self.obs[..n * o].copy_from_slice(snap.f32s_of_len(&key("obs"), n * o)?);
-        self.next_obs[..n * o].copy_from_slice(snap.f32s_of_len(&key("next_obs"), n * o)?);
+        self.obs.load(snap, &key("obs"), n * o)?;
+        self.next_obs.load(snap, &key("next_obs"), n * o)?;
         self.actions[..n * a].copy_from_slice(snap.f32s_of_len(&key("actions"), n * a)?);
         self.rewards[..n].copy_from_slice(snap.f32s_of_len(&key("rewards"), n)?);
         self.terminated[..n].copy_from_slice(&terminated);
@@ -155,18 +168,68 @@ impl ReplayBuffer {
         };
         for _ in 0..batch_size {
             let i = rng.random_range(0..self.len);
-            batch.obs.extend_from_slice(&self.obs[i * o..(i + 1) * o]);
+            self.obs.read(i * o, o, &mut batch.obs);
             batch
                 .actions
                 .extend_from_slice(&self.actions[i * a..(i + 1) * a]);
             batch.rewards.push(self.rewards[i]);
-            batch
-                .next_obs
-                .extend_from_slice(&self.next_obs[i * o..(i + 1) * o]);
+            self.next_obs.read(i * o, o, &mut batch.next_obs);
             let done = self.terminated[i] && !self.timeouts[i];
             batch.dones.push(if done { 1.0 } else { 0.0 });
         }
         batch
+    }
+}
+
+/// Observation rows: floats, or bytes standing for `byte / 255`.
+#[derive(Clone, Debug, PartialEq)]
+enum ObsRows {
+    Floats(Vec<f32>),
+    Bytes(Vec<u8>),
+}
+
+impl ObsRows {
+    fn new(len: usize, bytes: bool) -> Self {
+        if bytes {
+            ObsRows::Bytes(vec![0; len])
+        } else {
+            ObsRows::Floats(vec![0.0; len])
+        }
+    }
+
+    /// Stores `values` from index `at` (as bytes: `round(255 v)`, exact for `byte / 255`).
+    fn write(&mut self, at: usize, values: &[f32]) {
+        match self {
+            ObsRows::Floats(v) => v[at..at + values.len()].copy_from_slice(values),
+            ObsRows::Bytes(v) => {
+                for (b, &x) in v[at..at + values.len()].iter_mut().zip(values) {
+                    *b = (x.clamp(0.0, 1.0) * 255.0).round() as u8;
+                }
+            }
+        }
+    }
+
+    /// Appends the `len` values from index `at` to `out`.
+    fn read(&self, at: usize, len: usize, out: &mut Vec<f32>) {
+        match self {
+            ObsRows::Floats(v) => out.extend_from_slice(&v[at..at + len]),
+            ObsRows::Bytes(v) => out.extend(v[at..at + len].iter().map(|&b| f32::from(b) / 255.0)),
+        }
+    }
+
+    fn save<'a>(&'a self, snap: &mut Snapshot<'a>, name: String, len: usize) {
+        match self {
+            ObsRows::Floats(v) => snap.put_f32(name, &v[..len]),
+            ObsRows::Bytes(v) => snap.put_u8s(name, &v[..len]),
+        }
+    }
+
+    fn load(&mut self, snap: &Snapshot<'_>, name: &str, len: usize) -> Result<(), SnapshotError> {
+        match self {
+            ObsRows::Floats(v) => v[..len].copy_from_slice(snap.f32s_of_len(name, len)?),
+            ObsRows::Bytes(v) => v[..len].copy_from_slice(snap.u8s_of_len(name, len)?),
+        }
+        Ok(())
     }
 }
 
@@ -175,6 +238,17 @@ mod tests {
     use super::*;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
+
+    /// Every stored observation value.
+    fn values(rows: &ObsRows) -> Vec<f32> {
+        let len = match rows {
+            ObsRows::Floats(v) => v.len(),
+            ObsRows::Bytes(v) => v.len(),
+        };
+        let mut out = Vec::new();
+        rows.read(0, len, &mut out);
+        out
+    }
 
     fn row(buffer: &mut ReplayBuffer, k: usize, terminated: bool, timeout: bool) {
         let x = k as f32;
@@ -197,8 +271,8 @@ mod tests {
         assert_eq!((buffer.len(), buffer.position()), (3, 2));
         // Rows 3 and 4 overwrote slots 0 and 1; slot 2 still holds row 2.
         assert_eq!(buffer.rewards, vec![3.0, 4.0, 2.0]);
-        assert_eq!(&buffer.obs[..2], &[3.0, -3.0]);
-        assert_eq!(&buffer.next_obs[4..], &[3.0, -3.0]);
+        assert_eq!(&values(&buffer.obs)[..2], &[3.0, -3.0]);
+        assert_eq!(&values(&buffer.next_obs)[4..], &[3.0, -3.0]);
         let batch = buffer.sample(200, &mut ChaCha8Rng::seed_from_u64(0));
         let mut seen: Vec<f32> = batch.rewards.clone();
         seen.sort_by(f32::total_cmp);
@@ -267,5 +341,41 @@ mod tests {
             let expected = if *r == 0.0 || *r == 2.0 { 1.0 } else { 0.0 };
             assert_eq!(*d, expected, "row {r}");
         }
+    }
+
+    #[test]
+    fn image_rows_are_bytes_and_give_back_the_same_floats() {
+        let shape = ObsShape::Image {
+            channels: 1,
+            height: 2,
+            width: 2,
+        };
+        let mut bytes = ReplayBuffer::for_obs(4, shape, 1);
+        let mut floats = ReplayBuffer::new(4, 4, 1);
+        assert!(matches!(bytes.obs, ObsRows::Bytes(_)));
+        for k in 0..6u8 {
+            let obs: Vec<f32> = (0..4).map(|j| f32::from(40 * k + j) / 255.0).collect();
+            let next: Vec<f32> = (0..4)
+                .map(|j| f32::from(250 - 40 * k - j) / 255.0)
+                .collect();
+            for b in [&mut bytes, &mut floats] {
+                b.push(&obs, &[0.5], f32::from(k), &next, k == 3, false);
+            }
+        }
+        let draw = |b: &ReplayBuffer| b.sample(16, &mut ChaCha8Rng::seed_from_u64(5));
+        assert_eq!(draw(&bytes), draw(&floats));
+        // Saved and restored as bytes; a float buffer cannot take them.
+        let mut snap = Snapshot::new();
+        bytes.save_state(&mut snap, "r");
+        let mut back = ReplayBuffer::for_obs(4, shape, 1);
+        back.load_state(&snap, "r").unwrap();
+        assert_eq!(back, bytes);
+        let e = ReplayBuffer::new(4, 4, 1)
+            .load_state(&snap, "r")
+            .unwrap_err();
+        assert!(
+            e.to_string().contains("holds u8 values, expected f32"),
+            "{e}"
+        );
     }
 }

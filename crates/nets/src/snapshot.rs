@@ -86,6 +86,11 @@ impl<'a> Snapshot<'a> {
         self.put_u64(name, value.to_bits());
     }
 
+    /// Stores bytes under `name` (borrowed while saving).
+    pub fn put_u8s(&mut self, name: impl Into<String>, values: impl Into<Cow<'a, [u8]>>) {
+        self.entries.insert(name.into(), Entry::U8(values.into()));
+    }
+
     /// Stores flags under `name`.
     pub fn put_bools(&mut self, name: impl Into<String>, values: &[bool]) {
         let bytes: Vec<u8> = values.iter().map(|&b| u8::from(b)).collect();
@@ -155,6 +160,14 @@ impl<'a> Snapshot<'a> {
     /// The float stored under `name` by [`Snapshot::put_f64`].
     pub fn f64(&self, name: &str) -> Result<f64, SnapshotError> {
         self.u64(name).map(f64::from_bits)
+    }
+
+    /// The bytes under `name`, which must number `len`.
+    pub fn u8s_of_len(&self, name: &str, len: usize) -> Result<&[u8], SnapshotError> {
+        match self.entry(name)? {
+            Entry::U8(v) => of_len(name, v, len),
+            e => Err(Self::wrong(name, "u8", e)),
+        }
     }
 
     /// The flags stored under `name`.
