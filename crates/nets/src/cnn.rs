@@ -188,18 +188,41 @@ impl Cnn {
         self.linear.weight.dims()[1]
     }
 
-    /// `[batch, channels * height * width] -> [batch, features]`.
+    /// `[batch, channels * height * width] -> [batch, features]`. The convolutions run
+    /// channels-last as one matrix product each (see [`conv_nhwc`]); the last one's
+    /// output is flattened channel-first, as PyTorch's `nn.Flatten` does.
     pub fn forward(&self, obs: Tensor<2>) -> Tensor<2> {
         let batch = obs.dims()[0];
         let [c, h, w] = self.input;
+        let nhwc = obs.reshape([batch, c, h, w]).permute([0, 2, 3, 1]);
         let x = self
             .convs
             .iter()
-            .fold(obs.reshape([batch, c, h, w]), |x, conv| {
-                relu(conv.forward(x))
-            });
-        relu(self.linear.forward(x.flatten(1, 3)))
+            .fold(nhwc, |x, conv| relu(conv_nhwc(x, conv)));
+        relu(self.linear.forward(x.permute([0, 3, 1, 2]).flatten(1, 3)))
     }
+}
+
+/// `conv`'s valid convolution of a channels-last batch `[batch, height, width, in]` to
+/// `[batch, height', width', out]`, as im2col: the windows gathered by two `unfold`s into
+/// rows `[batch * height' * width', in * k * k]` times the weight `[in * k * k, out]`.
+/// The same numbers as `Conv2d::forward` up to summation order. On burn-flex a SAC step
+/// with a small CNN took 170 ms this way against 398 ms through `Conv2d::forward` (its
+/// direct convolution); gathering the windows with `k * k` strided slices and `cat`
+/// instead took 234 ms (one budget estimate each, 2-core machine loaded by a sweep).
+pub fn conv_nhwc(x: Tensor<4>, conv: &Conv2d) -> Tensor<4> {
+    let [out, inp, kh, kw] = conv.weight.dims();
+    let [sh, sw] = conv.stride;
+    let batch = x.dims()[0];
+    let windows: Tensor<6> = x.unfold::<5, _>(1, kh, sh).unfold(2, kw, sw);
+    let [_, ho, wo, _, _, _] = windows.dims();
+    let rows = windows.reshape([batch * ho * wo, inp * kh * kw]);
+    let weight = conv.weight.val().reshape([out, inp * kh * kw]).transpose();
+    let mut y = rows.matmul(weight);
+    if let Some(bias) = &conv.bias {
+        y = y + bias.val().unsqueeze::<2>();
+    }
+    y.reshape([batch, ho, wo, out])
 }
 
 /// What a network puts in front of its MLP: nothing for a vector observation, a CNN for
@@ -261,6 +284,33 @@ mod tests {
             (32 * 4 * 64 + 32) + (64 * 32 * 16 + 64) + (64 * 64 * 9 + 64) + (3136 * 512 + 512);
         assert_eq!(cnn.num_params(), params);
         assert_eq!(cnn.features(), 512);
+    }
+
+    #[test]
+    fn the_matrix_product_convolution_matches_burns_conv2d() {
+        let device = Backend::default_cpu().unwrap().device().unwrap();
+        let config = CnnConfig {
+            convs: vec![ConvLayer {
+                channels: 5,
+                kernel: 3,
+                stride: 2,
+            }],
+            features: 4,
+        };
+        let mut rng = ChaCha8Rng::seed_from_u64(4);
+        let cnn = Cnn::new([3, 11, 8], &config, &mut rng, &device).unwrap();
+        let values: Vec<f32> = (0..2 * 3 * 11 * 8)
+            .map(|i| ((i * 7) % 23) as f32 / 23.0)
+            .collect();
+        let x = Tensor::<4>::from_data(TensorData::new(values, [2, 3, 11, 8]), &device);
+        let direct = cnn.convs[0].forward(x.clone());
+        let nhwc = conv_nhwc(x.permute([0, 2, 3, 1]), &cnn.convs[0]).permute([0, 3, 1, 2]);
+        assert_eq!((direct.dims(), nhwc.dims()), ([2, 5, 5, 3], [2, 5, 5, 3]));
+        let direct: Vec<f32> = direct.into_data().try_into_vec().unwrap();
+        let im2col: Vec<f32> = nhwc.into_data().try_into_vec().unwrap();
+        for (a, b) in direct.iter().zip(&im2col) {
+            assert!((a - b).abs() < 1e-5, "{a} vs {b}");
+        }
     }
 
     #[test]
