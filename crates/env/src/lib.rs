@@ -2,7 +2,8 @@
 //!
 //! - [`FoosballEnv`]: the ITSF Tornado T-3000 table in rapier3d (cm, kg, s), yellow (the
 //!   agent) against a black [`Opponent`], Gymnasium-style ([`Env`]).
-//! - [`Pendulum`]: Gymnasium's `Pendulum-v1`, exact, for validating learners.
+//! - [`Pendulum`]: Gymnasium's `Pendulum-v1`, exact, for validating learners; [`block`]:
+//!   a one-step foosball sub-task seen as pixels, for validating image learners.
 //! - [`VecEnv`]: many environments stepped in parallel with rayon, auto-reset,
 //!   reproducible whatever the thread count.
 //! - [`render`]: top-down RGB frames of a table state (Gymnasium's `rgb_array`);
@@ -13,6 +14,7 @@
 //!
 //! Knows nothing of neural networks: observations and actions cross as flat `f32`.
 
+pub mod block;
 pub mod config;
 pub mod env;
 pub mod foosball;
