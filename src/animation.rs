@@ -75,26 +75,25 @@ impl Animation {
     pub fn frames(&self, trajectory: &Trajectory) -> Vec<Frame> {
         let mut ret = 0.0;
         let mut frames = Vec::new();
-        for (step, (obs, &reward)) in trajectory
-            .obs
-            .chunks_exact(OBS_DIM)
-            .zip(&trajectory.rewards)
-            .enumerate()
-        {
+        for (step, (state, &reward)) in steps(trajectory).enumerate() {
             ret += f64::from(reward);
-            if step % self.every.max(1) != 0 {
-                continue;
+            if step % self.every.max(1) == 0 {
+                frames.push(self.frame(state, step, reward, ret));
             }
-            let state: &[f32; OBS_DIM] = obs.try_into().expect("chunks of OBS_DIM");
-            let table = self.renderer.draw(state);
-            frames.push(if self.caption {
-                let in_goal = state[BALL_POS.start + 1] >= self.goal_line_y;
-                captioned(&table, step, reward, ret, in_goal)
-            } else {
-                table
-            });
         }
         frames
+    }
+
+    /// The picture of step `step`'s `state`, captioned with its reward and the return
+    /// `ret` up to it when `caption` is set.
+    fn frame(&self, state: &[f32; OBS_DIM], step: usize, reward: f32, ret: f64) -> Frame {
+        let table = self.renderer.draw(state);
+        if self.caption {
+            let in_goal = state[BALL_POS.start + 1] >= self.goal_line_y;
+            captioned(&table, step, reward, ret, in_goal)
+        } else {
+            table
+        }
     }
 
     /// Writes `trajectory` to `path` (atomically) as the container its extension names
@@ -103,15 +102,9 @@ impl Animation {
         let container = Container::of(path)?;
         let frames = match container {
             Container::Png => {
-                let last = trajectory.rewards.len().saturating_sub(1);
-                let still = Animation {
-                    every: last.max(1),
-                    ..*self
-                };
-                still
-                    .frames(trajectory)
-                    .into_iter()
-                    .last()
+                let ret = trajectory.rewards.iter().map(|&r| f64::from(r)).sum();
+                let last = steps(trajectory).enumerate().last();
+                last.map(|(step, (state, &reward))| self.frame(state, step, reward, ret))
                     .into_iter()
                     .collect()
             }
@@ -127,6 +120,15 @@ impl Animation {
         })
         .map_err(|e| format!("{}: {e}", path.display()))
     }
+}
+
+/// `trajectory`'s steps: the 38-dim state acted on and the reward that followed.
+fn steps(trajectory: &Trajectory) -> impl Iterator<Item = (&[f32; OBS_DIM], &f32)> {
+    trajectory
+        .obs
+        .chunks_exact(OBS_DIM)
+        .map(|row| row.try_into().expect("chunks of OBS_DIM"))
+        .zip(&trajectory.rewards)
 }
 
 /// `table` below a black band with two lines of text.

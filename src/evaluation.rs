@@ -59,7 +59,7 @@ impl EpisodeLog<FoosballEnv> for PlayedEpisode {
         }
     }
 
-    fn record(&mut self, _obs: &[f32], action: &[f32], t: &Transition<FoosballInfo>) {
+    fn record(&mut self, action: &[f32], t: &Transition<FoosballInfo>) {
         let s = &mut self.summary;
         s.steps += 1;
         s.ret += f64::from(t.reward);

@@ -148,19 +148,20 @@ fn pick(args: &Args, episodes: &[RecordedEpisode], goal_line_y: f32) -> Result<V
     }
 }
 
-/// Where episode `index` goes: `--out` itself for one episode into a file, a numbered
-/// sibling for several, or `episode-<index>.gif` in the `--out` folder.
-fn target(out: &Path, index: usize, several: bool) -> PathBuf {
-    match (out.extension().and_then(|e| e.to_str()), several) {
-        (Some("gif" | "mp4" | "png"), false) => out.to_path_buf(),
-        (Some(ext @ ("gif" | "mp4" | "png")), true) => {
-            let stem = out
-                .file_stem()
-                .and_then(|s| s.to_str())
-                .unwrap_or("episode");
+/// Where episode `index` goes: `--out` itself for one episode into a file (`is_file`:
+/// its extension names a [`Container`]), a numbered sibling for several, or
+/// `episode-<index>.gif` in the `--out` folder.
+fn target(out: &Path, is_file: bool, index: usize, several: bool) -> PathBuf {
+    match (is_file, several) {
+        (true, false) => out.to_path_buf(),
+        (true, true) => {
+            fn part(p: Option<&std::ffi::OsStr>) -> &str {
+                p.and_then(|s| s.to_str()).unwrap_or("")
+            }
+            let (stem, ext) = (part(out.file_stem()), part(out.extension()));
             out.with_file_name(format!("{stem}-{index}.{ext}"))
         }
-        _ => out.join(format!("episode-{index}.gif")),
+        (false, _) => out.join(format!("episode-{index}.gif")),
     }
 }
 
@@ -171,11 +172,9 @@ fn run(args: &Args) -> Result<String, String> {
             args.scale, args.every
         ));
     }
-    let is_file = matches!(
-        args.out.extension().and_then(|e| e.to_str()),
-        Some("gif" | "mp4" | "png")
-    );
-    if is_file && Container::of(&args.out)? == Container::Mp4 {
+    let container = Container::of(&args.out).ok();
+    let is_file = container.is_some();
+    if container == Some(Container::Mp4) {
         ffmpeg_available()?;
     }
     let Source {
@@ -205,7 +204,7 @@ fn run(args: &Args) -> Result<String, String> {
     let mut written = vec![format!("from {source}:")];
     for &index in &picked {
         let t = &episodes[index].trajectory;
-        let path = target(&args.out, index, picked.len() > 1);
+        let path = target(&args.out, is_file, index, picked.len() > 1);
         animation.write(&path, t)?;
         written.push(format!(
             "{} (episode {index}: {} steps, return {:.0}, seed {})",

@@ -2,6 +2,7 @@
 //! observations as `f32`, or for images as bytes (a quarter of the memory; images arrive
 //! as `byte / 255`, so the bytes give back the very same floats).
 
+use foosball_env::observation::{byte_value, value_byte};
 use foosball_nets::{ObsShape, Snapshot, SnapshotError};
 use rand::Rng;
 
@@ -203,7 +204,7 @@ impl ObsRows {
             ObsRows::Floats(v) => v[at..at + values.len()].copy_from_slice(values),
             ObsRows::Bytes(v) => {
                 for (b, &x) in v[at..at + values.len()].iter_mut().zip(values) {
-                    *b = (x.clamp(0.0, 1.0) * 255.0).round() as u8;
+                    *b = value_byte(x);
                 }
             }
         }
@@ -213,7 +214,7 @@ impl ObsRows {
     fn read(&self, at: usize, len: usize, out: &mut Vec<f32>) {
         match self {
             ObsRows::Floats(v) => out.extend_from_slice(&v[at..at + len]),
-            ObsRows::Bytes(v) => out.extend(v[at..at + len].iter().map(|&b| f32::from(b) / 255.0)),
+            ObsRows::Bytes(v) => out.extend(v[at..at + len].iter().map(|&b| byte_value(b))),
         }
     }
 

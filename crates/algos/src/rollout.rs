@@ -124,12 +124,12 @@ pub trait EpisodeLog<E: Env>: Send {
     /// Before each step: the env as the policy acts on it (e.g. to read its state).
     fn before_step(&mut self, _env: &E) {}
 
-    /// One step: the observation acted on, the action taken and what followed.
-    fn record(&mut self, obs: &[f32], action: &[f32], transition: &Transition<E::Info>);
+    /// One step: the action taken and what followed.
+    fn record(&mut self, action: &[f32], transition: &Transition<E::Info>);
 }
 
 impl<E: Env> EpisodeLog<E> for Episode {
-    fn record(&mut self, _: &[f32], _: &[f32], t: &Transition<E::Info>) {
+    fn record(&mut self, _: &[f32], t: &Transition<E::Info>) {
         self.ret += f64::from(t.reward);
         self.len += 1;
     }
@@ -197,7 +197,7 @@ pub fn play_deterministic<E: Env, L: EpisodeLog<E>>(
             .map(|(env, slot, action)| {
                 slot.log.before_step(env);
                 let t = env.step_into(action, &mut slot.next_obs)?;
-                slot.log.record(&slot.obs, action, &t);
+                slot.log.record(action, &t);
                 std::mem::swap(&mut slot.obs, &mut slot.next_obs);
                 Ok(t.done())
             })

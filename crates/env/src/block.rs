@@ -14,8 +14,7 @@ use crate::EnvRng;
 use crate::env::{Env, EnvError, Transition, check_action};
 use crate::geometry::{self, BALL_RADIUS};
 use crate::layout::{BALL_POS, OBS_DIM};
-use crate::observation::channel_first;
-use crate::render::Renderer;
+use crate::observation::{FrameStack, ObservationConfig, ObservationKind};
 
 /// The goalie's slide range, cm: the ball's x range and the action's scale.
 pub const RANGE: f32 = geometry::RODS[0].slide_range;
@@ -23,7 +22,7 @@ pub const RANGE: f32 = geometry::RODS[0].slide_range;
 /// The Block task (see the module docs).
 #[derive(Debug, Clone)]
 pub struct Block {
-    renderer: Renderer,
+    picture: FrameStack,
     obs_dim: usize,
     ball_x: f32,
     rng: EnvRng,
@@ -32,11 +31,16 @@ pub struct Block {
 impl Block {
     /// A task drawing `width x height` grey frames (each side at least 1 pixel).
     pub fn new(width: usize, height: usize) -> Self {
-        let renderer = Renderer::fit(width, height);
-        let (w, h) = renderer.size();
+        let config = ObservationConfig {
+            kind: ObservationKind::Image,
+            width: width.max(1) as u32,
+            height: height.max(1) as u32,
+            grayscale: true,
+            frame_stack: 1,
+        };
         Self {
-            renderer,
-            obs_dim: w * h,
+            picture: FrameStack::new(config),
+            obs_dim: config.dim(),
             ball_x: 0.0,
             rng: EnvRng::seed_from_u64(0),
         }
@@ -54,11 +58,9 @@ impl Block {
         state
     }
 
-    fn observe(&self, obs: &mut [f32]) {
-        let bytes = channel_first(&self.renderer.draw(&self.state()), true);
-        for (o, b) in obs.iter_mut().zip(bytes) {
-            *o = f32::from(b) / 255.0;
-        }
+    fn observe(&mut self, obs: &mut [f32]) {
+        self.picture.reset(&self.state());
+        self.picture.write(obs);
     }
 }
 

@@ -143,7 +143,7 @@ impl FrameStack {
     pub fn write(&self, out: &mut [f32]) {
         let bytes = self.frames.iter().flatten();
         for (o, &b) in out.iter_mut().zip(bytes) {
-            *o = f32::from(b) / 255.0;
+            *o = byte_value(b);
         }
     }
 }
@@ -170,12 +170,20 @@ pub fn channel_first(frame: &Frame, grayscale: bool) -> Vec<u8> {
     }
 }
 
+/// The observation value of pixel byte `b`: `b / 255`.
+pub fn byte_value(b: u8) -> f32 {
+    f32::from(b) / 255.0
+}
+
+/// The byte behind an image observation value; exact for values [`byte_value`] made.
+pub fn value_byte(v: f32) -> u8 {
+    (v.clamp(0.0, 1.0) * 255.0).round() as u8
+}
+
 /// Image observation values (`byte / 255`) back to their bytes; exact for values the env
 /// handed out.
 pub fn to_bytes(obs: &[f32]) -> Vec<u8> {
-    obs.iter()
-        .map(|&v| (v.clamp(0.0, 1.0) * 255.0).round() as u8)
-        .collect()
+    obs.iter().map(|&v| value_byte(v)).collect()
 }
 
 #[cfg(test)]
@@ -185,7 +193,7 @@ mod tests {
     #[test]
     fn every_byte_survives_the_trip_through_f32() {
         let bytes: Vec<u8> = (0..=255).collect();
-        let values: Vec<f32> = bytes.iter().map(|&b| f32::from(b) / 255.0).collect();
+        let values: Vec<f32> = bytes.iter().map(|&b| byte_value(b)).collect();
         assert_eq!(to_bytes(&values), bytes);
     }
 
