@@ -1,14 +1,22 @@
-//! Benchmark figures as data: both benches (`env_speed`, `update_speed`) include this
-//! file and write `target/bench/<bench>.json`, a flat object of figure name -> number
-//! with the unit in the name.
+//! Benchmark figures as data: the benches (`env_speed`, `update_speed`, `train_speed`)
+//! include this file and write `target/bench/<bench>.json`, a flat object of figure name
+//! -> number with the unit in the name.
 
 use std::path::{Path, PathBuf};
 
-/// Writes `figures` to `target/bench/<bench>.json` under the workspace (or
+/// Writes `figures` to `target/bench/<bench>.json` under the workspace (the nearest
+/// directory above the bench's package that holds `Cargo.lock`; or
 /// `$CARGO_TARGET_DIR/bench`) and returns the path.
 pub fn write_figures(bench: &str, figures: &[(String, f64)]) -> PathBuf {
     let target = std::env::var_os("CARGO_TARGET_DIR").map_or_else(
-        || Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target"),
+        || {
+            let package = Path::new(env!("CARGO_MANIFEST_DIR"));
+            let workspace = package
+                .ancestors()
+                .find(|d| d.join("Cargo.lock").is_file())
+                .unwrap_or(package);
+            workspace.join("target")
+        },
         PathBuf::from,
     );
     let dir = target.join("bench");

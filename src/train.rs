@@ -63,6 +63,8 @@ impl From<EnvError> for TrainError {
 /// What the loop has just done, for progress displays.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Event {
+    /// The loop starts (after a resume, at the checkpoint's env steps).
+    Started,
     /// A logging window ended ([`LOG_EVERY`] env steps or an epoch end).
     Window(Speed),
     /// At most every [`TICK`] of wall time: the speed since this process started training,
@@ -202,6 +204,7 @@ pub fn train(
             event,
         };
         let started = (Instant::now(), agent.env_steps(), agent.gradient_steps());
+        report(&progress(started.1, Event::Started));
         let mut last_tick = started.0;
         for epoch in done + 1..=u64::from(p.epochs) {
             let end = epoch * p.steps_per_epoch;

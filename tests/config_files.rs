@@ -71,6 +71,11 @@ fn malformed_files_and_wrong_sections_are_refused() {
     assert!(error("algo = \"dqn\"\n").contains("dqn"));
     assert!(error("algo = \"sac\"\n[protocol]\nepochs = -1\n").starts_with("bad.toml:3:"));
     assert!(error("algo = [\n").starts_with("bad.toml:"));
+    let e = error("algo = \"sac\"\n[env]\nrod_mount = \"hinge\"\n");
+    assert!(
+        e.starts_with("bad.toml:2:") && e.contains("`hinge`, expected `joint` or `locked_axes`"),
+        "{e}"
+    );
     let e = error("algo = \"sac\"\n[ppo]\nn_steps = 8\n");
     assert!(e.contains("ppo: section for another algorithm"), "{e}");
     let missing = RunConfig::load(Path::new("no/such.toml")).unwrap_err();

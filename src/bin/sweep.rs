@@ -126,6 +126,10 @@ impl Overall {
     }
 
     fn update(&mut self, name: &str, index: usize, p: &Progress) {
+        if p.event == Event::Started {
+            // A resumed run's earlier steps were not done at this process's speed.
+            self.at_start += p.env_steps - self.steps[index];
+        }
         self.steps[index] = p.env_steps;
         let done: u64 = self.steps.iter().sum();
         self.bar.set_position(done);

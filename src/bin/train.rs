@@ -148,6 +148,7 @@ impl Display {
                 "[{:>9}/{}] epoch {epoch} done, checkpoint written",
                 p.env_steps, p.total_steps
             )),
+            Event::Started => {}
             Event::Test => {
                 self.bar.finish_and_clear();
                 println!("testing the final networks");

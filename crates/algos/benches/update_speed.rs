@@ -1,7 +1,8 @@
 //! Time per gradient update of SAC, TD3 and PPO (batch 256, foosball sizes: 38-dim
 //! observations, 8-dim actions), and where the time of one 7x3000 update goes.
 //!
-//! `cargo bench -p foosball-algos --bench update_speed -- [--sizes 64x2,256x2,3000x7] [--reps N]`
+//! `cargo bench -p foosball-algos --bench update_speed -- [--sizes 64x2,256x2,3000x7] [--reps N]
+//! [--algos sac,td3,ppo]`
 //! (`RAYON_NUM_THREADS` sets the thread count). The figures also go to
 //! `target/bench/update_speed.json` (`sac_update_ms_64x64`, ..., `sac_update_ms_7x3000`);
 //! `--backend wgpu` (built with `--features wgpu`) times the GPU path and writes
@@ -104,33 +105,40 @@ fn size_key(hidden: &[usize]) -> String {
 }
 
 /// Times SAC, TD3 and PPO updates (and PPO's act) at `hidden`; returns the figures.
-fn bench_size(hidden: &[usize], reps: usize, device: &Device) -> Vec<(String, f64)> {
+fn bench_size(hidden: &[usize], algos: &str, reps: usize, device: &Device) -> Vec<(String, f64)> {
     let mut rng = ChaCha8Rng::seed_from_u64(0);
     let label = format!("{}x{}", hidden[0], hidden.len());
     let key = size_key(hidden);
     let mut out = Vec::new();
 
-    let mut sac = SacConfig::default();
-    sac.net.hidden = hidden.to_vec();
-    sac.net.adam.max_grad_norm = Some(10.0);
-    sac.off_policy.learning_starts = BATCH as u64;
-    sac.off_policy.buffer_size = 10_000;
-    let t = off_policy_update(&mut Sac::agent(OBS, ACT, sac, 1, device), reps, 1, &mut rng);
-    println!("{label:>8}  SAC update  {:>9.1} ms", t * 1e3);
-    out.push((format!("sac_update_ms_{key}"), t * 1e3));
-
-    let mut td3 = Td3Config::default();
-    td3.net.hidden = hidden.to_vec();
-    td3.net.adam.max_grad_norm = Some(10.0);
-    td3.off_policy.learning_starts = BATCH as u64;
-    td3.off_policy.buffer_size = 10_000;
-    let mut agent = Td3::agent(OBS, ACT, td3, 1, device);
-    let t = off_policy_update(&mut agent, reps, 2, &mut rng);
-    println!(
-        "{label:>8}  TD3 update  {:>9.1} ms (mean over a critic-only and a delayed step)",
-        t * 1e3
-    );
-    out.push((format!("td3_update_ms_{key}"), t * 1e3));
+    let wanted = |algo: &str| algos.split(',').any(|a| a == algo);
+    if wanted("sac") {
+        let mut sac = SacConfig::default();
+        sac.net.hidden = hidden.to_vec();
+        sac.net.adam.max_grad_norm = Some(10.0);
+        sac.off_policy.learning_starts = BATCH as u64;
+        sac.off_policy.buffer_size = 10_000;
+        let t = off_policy_update(&mut Sac::agent(OBS, ACT, sac, 1, device), reps, 1, &mut rng);
+        println!("{label:>8}  SAC update  {:>9.2} ms", t * 1e3);
+        out.push((format!("sac_update_ms_{key}"), t * 1e3));
+    }
+    if wanted("td3") {
+        let mut td3 = Td3Config::default();
+        td3.net.hidden = hidden.to_vec();
+        td3.net.adam.max_grad_norm = Some(10.0);
+        td3.off_policy.learning_starts = BATCH as u64;
+        td3.off_policy.buffer_size = 10_000;
+        let mut agent = Td3::agent(OBS, ACT, td3, 1, device);
+        let t = off_policy_update(&mut agent, reps, 2, &mut rng);
+        println!(
+            "{label:>8}  TD3 update  {:>9.2} ms (mean over a critic-only and a delayed step)",
+            t * 1e3
+        );
+        out.push((format!("td3_update_ms_{key}"), t * 1e3));
+    }
+    if !wanted("ppo") {
+        return out;
+    }
 
     let mut ppo = PpoConfig {
         n_steps: BATCH,
@@ -154,7 +162,7 @@ fn bench_size(hidden: &[usize], reps: usize, device: &Device) -> Vec<(String, f6
         |()| drop(agent.act(&obs, ActMode::Deterministic)),
     );
     println!(
-        "{label:>8}  PPO update  {:>9.1} ms (values of {BATCH} rows, GAE, 1 gradient step); act on 1 obs {:.2} ms",
+        "{label:>8}  PPO update  {:>9.2} ms (values of {BATCH} rows, GAE, 1 gradient step); act on 1 obs {:.2} ms",
         t * 1e3,
         act * 1e3
     );
@@ -203,6 +211,7 @@ fn main() {
             .map(|i| args[i + 1].clone())
     };
     let sizes = value("--sizes").unwrap_or_else(|| "64x2,256x2,3000x7".into());
+    let algos = value("--algos").unwrap_or_else(|| "sac,td3,ppo".into());
     let reps: usize = value("--reps").map_or(3, |r| r.parse().expect("--reps N"));
     let backend =
         value("--backend").map_or_else(|| Backend::default_cpu().unwrap(), |b| b.parse().unwrap());
@@ -217,7 +226,7 @@ fn main() {
         let hidden = vec![width.parse::<usize>().unwrap(); depth.parse().unwrap()];
         let reps = if hidden[0] >= 1000 { reps } else { reps * 20 };
         breakdown(&hidden, reps, &device);
-        figures.extend(bench_size(&hidden, reps, &device));
+        figures.extend(bench_size(&hidden, &algos, reps, &device));
     }
     let bench = if Some(backend) == Backend::default_cpu().ok() {
         "update_speed".to_string()

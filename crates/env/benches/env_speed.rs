@@ -5,7 +5,8 @@
 //! 1 and 2 threads, and rendered frames/s (84 x 84 and 3 px/cm). Wall-clock figures: run on an idle machine. The figures also go to
 //! `target/bench/env_speed.json` (`bare_physics_steps_per_s`, `env_loop_physics_steps_per_s`,
 //! `env_steps_per_s_frame_skip_1`, `vec_env_speedup_2_threads`,
-//! `render_frames_per_s_84x84`, ...).
+//! `render_frames_per_s_84x84`, ...); the figures ending in `_locked_axes` are those of
+//! `rod_mount = "locked_axes"`.
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -15,7 +16,8 @@ use foosball_env::layout::{ACTION_DIM, OBS_DIM};
 use foosball_env::render::Renderer;
 use foosball_env::table::{PhysicsParams, Table};
 use foosball_env::{
-    EndReason, Env, EnvRng, FoosballConfig, FoosballEnv, ObservationConfig, ObservationKind, VecEnv,
+    EndReason, Env, EnvRng, FoosballConfig, FoosballEnv, ObservationConfig, ObservationKind,
+    RodMount, VecEnv,
 };
 use rand::{Rng, SeedableRng};
 
@@ -46,6 +48,33 @@ fn random_actions(rng: &mut EnvRng, n: usize) -> Vec<f32> {
         .collect()
 }
 
+/// Env steps/s of one env under `config` with random actions, resets included; prints
+/// the figure with the episodes' mean length and how many ended stagnant.
+fn env_loop(config: FoosballConfig) -> f64 {
+    let frame_skip = config.frame_skip;
+    let mut env = FoosballEnv::new(config).unwrap();
+    env.reset(Some(0));
+    let mut rng = EnvRng::seed_from_u64(1);
+    let (mut episodes, mut steps, mut stagnant) = (0u64, 0u64, 0u64);
+    let per_s = rate(|| {
+        let a = random_actions(&mut rng, 1);
+        let (_, t) = env.step(&a).unwrap();
+        steps += 1;
+        if t.done() {
+            env.reset(None);
+            episodes += 1;
+            stagnant += u64::from(t.info.end == Some(EndReason::Stagnant));
+        }
+    });
+    println!(
+        "env steps/s, frame_skip {frame_skip} (random actions, resets incl.): {per_s:>10.0}  ({:.0} physics steps/s, {:.1} steps/episode, {:.0}% of episodes end stagnant)",
+        per_s * frame_skip as f64,
+        steps as f64 / episodes.max(1) as f64,
+        100.0 * stagnant as f64 / episodes.max(1) as f64
+    );
+    per_s
+}
+
 fn main() {
     let config = FoosballConfig::default();
     let params = PhysicsParams::nominal(&config);
@@ -73,20 +102,7 @@ fn main() {
             frame_skip,
             ..config.clone()
         };
-        let mut env = FoosballEnv::new(c).unwrap();
-        env.reset(Some(0));
-        let mut rng = EnvRng::seed_from_u64(1);
-        let (mut episodes, mut steps, mut stagnant) = (0u64, 0u64, 0u64);
-        let per_s = rate(|| {
-            let a = random_actions(&mut rng, 1);
-            let (_, t) = env.step(&a).unwrap();
-            steps += 1;
-            if t.done() {
-                env.reset(None);
-                episodes += 1;
-                stagnant += u64::from(t.info.end == Some(EndReason::Stagnant));
-            }
-        });
+        let per_s = env_loop(c);
         out.push((format!("env_steps_per_s_frame_skip_{frame_skip}"), per_s));
         out.push((
             format!("env_loop_physics_steps_per_s_frame_skip_{frame_skip}"),
@@ -98,12 +114,32 @@ fn main() {
                 per_s * frame_skip as f64,
             ));
         }
-        println!(
-            "env steps/s, frame_skip {frame_skip} (random actions, resets incl.): {per_s:>10.0}  ({:.0} physics steps/s, {:.1} steps/episode, {:.0}% of episodes end stagnant)",
-            per_s * frame_skip as f64,
-            steps as f64 / episodes.max(1) as f64,
-            100.0 * stagnant as f64 / episodes.max(1) as f64
-        );
+    }
+
+    // The other rod mount: the bare table and the env loop at frame skips 1 and 5.
+    let locked = FoosballConfig {
+        rod_mount: RodMount::LockedAxes,
+        ..config.clone()
+    };
+    let mut table = Table::new(&PhysicsParams::nominal(&locked), [-0.5, -0.1]);
+    table.set_ball([-30.0, -40.0, BALL_RADIUS], [0.0, 150.0, 0.0]);
+    for i in 0..8 {
+        table.set_target(i, 3.0, 0.5);
+    }
+    let physics = rate(|| table.step());
+    out.push(("bare_physics_steps_per_s_locked_axes".into(), physics));
+    println!("physics steps/s, rod_mount locked_axes:           {physics:>10.0}");
+    for frame_skip in [1, 5] {
+        let c = FoosballConfig {
+            frame_skip,
+            ..locked.clone()
+        };
+        print!("rod_mount locked_axes: ");
+        let per_s = env_loop(c);
+        out.push((
+            format!("env_steps_per_s_frame_skip_{frame_skip}_locked_axes"),
+            per_s,
+        ));
     }
 
     // Rendering: states from a random-action episode, drawn as 84 x 84 frames (image

@@ -141,6 +141,8 @@ pub struct FoosballConfig {
     pub start: StartConfig,
     /// Nominal ball and surface properties.
     pub ball: BallConfig,
+    /// How each rod is held to the table (default `joint`).
+    pub rod_mount: RodMount,
     /// Who plays black.
     pub opponent: OpponentKind,
     /// Per-episode domain randomisation (off by default, as in the paper).
@@ -167,6 +169,7 @@ impl FoosballConfig {
             rules: EpisodeRules::default(),
             start: StartConfig::default(),
             ball: BallConfig::default(),
+            rod_mount: RodMount::default(),
             opponent: OpponentKind::Static,
             randomization: Randomization::default(),
             observation: ObservationConfig::default(),
@@ -368,6 +371,28 @@ impl Default for BallConfig {
             planar: false,
         }
     }
+}
+
+/// How a rod is held to the table, leaving it free to slide along and turn about its
+/// axis. Both give the same mechanics (mass and inertia about the axis, gravity's torque
+/// on the hanging men, a hard stop at the slide range); they differ in cost and in how
+/// exactly rapier holds the axis.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RodMount {
+    /// A generic impulse joint locking the other four degrees of freedom (solved with
+    /// the contacts each step, to the solver's tolerance), with a limit on the slide.
+    #[default]
+    Joint,
+    /// The rod body's other four degrees of freedom locked outright (`LockedAxes`), its
+    /// centre of mass put on the axis with the men's gravity applied as a torque, and a
+    /// joint carrying only the slide limit: about twice the bare physics speed.
+    LockedAxes,
+}
+
+impl RodMount {
+    /// Both mounts.
+    pub const ALL: [RodMount; 2] = [RodMount::Joint, RodMount::LockedAxes];
 }
 
 /// Who controls black's rods.

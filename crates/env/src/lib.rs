@@ -30,7 +30,7 @@ pub mod servo;
 pub mod table;
 pub mod vec_env;
 
-pub use config::{ConfigError, FoosballConfig, OpponentKind, Preset, Randomization};
+pub use config::{ConfigError, FoosballConfig, OpponentKind, Preset, Randomization, RodMount};
 pub use env::{Env, EnvError, Transition};
 pub use foosball::{EndReason, FoosballEnv, FoosballInfo};
 pub use observation::{ObservationConfig, ObservationKind};

