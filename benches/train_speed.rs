@@ -15,6 +15,8 @@ use foosball_rl::train::{Event, Start, train};
 use std::path::Path;
 use std::time::Instant;
 
+#[path = "args.rs"]
+mod args;
 #[path = "figures.rs"]
 mod figures;
 
@@ -51,20 +53,14 @@ fn train_speed(algo: &str, hidden: &[usize], steps: u64) -> f64 {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let value = |flag: &str| {
-        args.iter()
-            .position(|a| a == flag)
-            .map(|i| args[i + 1].clone())
-    };
-    let hidden: Vec<usize> = value("--hidden")
+    let hidden: Vec<usize> = args::flag("--hidden")
         .unwrap_or_else(|| "64,64".into())
         .split(',')
         .map(|w| w.parse().expect("--hidden W,W,..."))
         .collect();
-    let steps: u64 = value("--steps").map_or(9_000, |s| s.parse().expect("--steps N"));
+    let steps: u64 = args::flag("--steps").map_or(9_000, |s| s.parse().expect("--steps N"));
     assert!(steps > 2 * WARM_UP, "--steps must exceed {}", 2 * WARM_UP);
-    let algos = value("--algos").unwrap_or_else(|| "sac,td3,ppo".into());
+    let algos = args::flag("--algos").unwrap_or_else(|| "sac,td3,ppo".into());
     let key = hidden
         .iter()
         .map(ToString::to_string)

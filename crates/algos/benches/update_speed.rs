@@ -17,6 +17,8 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::time::Instant;
 
+#[path = "../../../benches/args.rs"]
+mod args;
 #[path = "../../../benches/figures.rs"]
 mod figures;
 
@@ -204,17 +206,11 @@ fn breakdown(hidden: &[usize], reps: usize, device: &Device) {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let value = |flag: &str| {
-        args.iter()
-            .position(|a| a == flag)
-            .map(|i| args[i + 1].clone())
-    };
-    let sizes = value("--sizes").unwrap_or_else(|| "64x2,256x2,3000x7".into());
-    let algos = value("--algos").unwrap_or_else(|| "sac,td3,ppo".into());
-    let reps: usize = value("--reps").map_or(3, |r| r.parse().expect("--reps N"));
-    let backend =
-        value("--backend").map_or_else(|| Backend::default_cpu().unwrap(), |b| b.parse().unwrap());
+    let sizes = args::flag("--sizes").unwrap_or_else(|| "64x2,256x2,3000x7".into());
+    let algos = args::flag("--algos").unwrap_or_else(|| "sac,td3,ppo".into());
+    let reps: usize = args::flag("--reps").map_or(3, |r| r.parse().expect("--reps N"));
+    let backend = args::flag("--backend")
+        .map_or_else(|| Backend::default_cpu().unwrap(), |b| b.parse().unwrap());
     let device = backend.device().unwrap();
     println!(
         "backend {backend}, {} rayon threads, batch {BATCH}",
