@@ -13,6 +13,7 @@ use std::time::{Duration, Instant};
 
 use foosball_env::geometry::BALL_RADIUS;
 use foosball_env::layout::{ACTION_DIM, OBS_DIM};
+use foosball_env::observation::{FrameStack, to_bytes};
 use foosball_env::render::Renderer;
 use foosball_env::table::{PhysicsParams, Table};
 use foosball_env::{
@@ -176,6 +177,32 @@ fn main() {
         },
         ..config.clone()
     };
+    // What handing out image observations as f32 costs: one stack of 84 x 84 x 4 bytes
+    // written as `byte / 255` (the env's output), and read back to bytes (the replay
+    // buffer's input), each against a plain byte copy of the same stack.
+    let mut stack = FrameStack::new(image.observation);
+    stack.reset(&states[0]);
+    let mut floats = vec![0.0_f32; image.observation.dim()];
+    let bytes = to_bytes(&floats);
+    let mut copy = vec![0_u8; bytes.len()];
+    for (name, per_s) in [
+        (
+            "frame_stack_writes_per_s_84x84x4_f32",
+            rate(|| stack.write(black_box(&mut floats))),
+        ),
+        (
+            "frame_stack_reads_per_s_84x84x4_to_bytes",
+            rate(|| drop(black_box(to_bytes(&floats)))),
+        ),
+        (
+            "frame_stack_copies_per_s_84x84x4_bytes",
+            rate(|| copy.copy_from_slice(black_box(&bytes))),
+        ),
+    ] {
+        println!("{name}: {per_s:>10.0} ({:.2} us each)", 1e6 / per_s);
+        out.push((name.into(), per_s));
+    }
+
     for (name, c) in [("state", config.clone()), ("image_84x84x4", image)] {
         let mut env = FoosballEnv::new(c).unwrap();
         let mut obs = vec![0.0; env.obs_dim()];

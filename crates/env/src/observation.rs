@@ -141,9 +141,13 @@ impl FrameStack {
 
     /// Writes the stack into `out` (length [`ObservationConfig::dim`]) as `byte / 255`.
     pub fn write(&self, out: &mut [f32]) {
-        let bytes = self.frames.iter().flatten();
-        for (o, &b) in out.iter_mut().zip(bytes) {
-            *o = byte_value(b);
+        // Frame by frame, so that each inner loop is a plain slice loop the compiler
+        // vectorises (a flattened iterator was 30 us per 84 x 84 x 4 stack).
+        let n = self.config.dim() / self.config.frame_stack as usize;
+        for (out, frame) in out.chunks_exact_mut(n).zip(&self.frames) {
+            for (o, &b) in out.iter_mut().zip(frame) {
+                *o = byte_value(b);
+            }
         }
     }
 }
@@ -176,8 +180,10 @@ pub fn byte_value(b: u8) -> f32 {
 }
 
 /// The byte behind an image observation value; exact for values [`byte_value`] made.
+/// `v * 255` rounded half up (`+ 0.5`, then the saturating cast truncates), which is
+/// branch-free and vectorises, unlike `f32::round`.
 pub fn value_byte(v: f32) -> u8 {
-    (v.clamp(0.0, 1.0) * 255.0).round() as u8
+    (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8
 }
 
 /// Image observation values (`byte / 255`) back to their bytes; exact for values the env
