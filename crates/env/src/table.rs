@@ -1,10 +1,11 @@
 //! The table as a rapier3d world: playfield, walls, goal pockets, eight servo-driven rods
 //! with their men, and the ball. Units cm, kg, s, rad.
 //!
-//! Each rod is a dynamic rigid body held to the fixed table by a generic joint that leaves
-//! two degrees of freedom free: slide along the rod axis (limited to the servo's range)
-//! and turn about it. Two [`Servo`]s drive those coordinates, applied as a force and a
-//! torque before every physics step. Only the ball touches anything: men and rods collide
+//! Each rod is a dynamic rigid body with two degrees of freedom left free: slide along the
+//! rod axis (limited to the servo's range by a joint limit) and turn about it. The other
+//! four are held by a generic joint ([`RodMount::Joint`]) or locked on the body
+//! ([`RodMount::LockedAxes`]). Two [`Servo`]s drive the free coordinates, applied as a
+//! force and a torque before every physics step. Only the ball touches anything: men and rods collide
 //! with the ball alone, and the table collides with the ball alone.
 
 use core::f32::consts::PI;
