@@ -10,7 +10,7 @@
 
 use burn::module::Module;
 use foosball_algos::agent::{ActMode, Agent, Experience};
-use foosball_algos::{Ppo, PpoConfig, Sac, SacConfig, Td3, Td3Config};
+use foosball_algos::{NetConfig, OffPolicyConfig, Ppo, PpoConfig, Sac, SacConfig, Td3, Td3Config};
 use foosball_nets::params::polyak_update;
 use foosball_nets::{Activation, Adam, AdamConfig, Backend, Device, Mlp, Tensor, TensorData};
 use rand::{Rng, SeedableRng};
@@ -106,6 +106,15 @@ fn size_key(hidden: &[usize]) -> String {
     }
 }
 
+/// An off-policy learner's settings for the bench: `hidden` networks, clipped gradients,
+/// updates from the first full batch on, a small buffer.
+fn bench_settings(net: &mut NetConfig, schedule: &mut OffPolicyConfig, hidden: &[usize]) {
+    net.hidden = hidden.to_vec();
+    net.adam.max_grad_norm = Some(10.0);
+    schedule.learning_starts = BATCH as u64;
+    schedule.buffer_size = 10_000;
+}
+
 /// Times SAC, TD3 and PPO updates (and PPO's act) at `hidden`; returns the figures.
 fn bench_size(hidden: &[usize], algos: &str, reps: usize, device: &Device) -> Vec<(String, f64)> {
     let mut rng = ChaCha8Rng::seed_from_u64(0);
@@ -116,20 +125,14 @@ fn bench_size(hidden: &[usize], algos: &str, reps: usize, device: &Device) -> Ve
     let wanted = |algo: &str| algos.split(',').any(|a| a == algo);
     if wanted("sac") {
         let mut sac = SacConfig::default();
-        sac.net.hidden = hidden.to_vec();
-        sac.net.adam.max_grad_norm = Some(10.0);
-        sac.off_policy.learning_starts = BATCH as u64;
-        sac.off_policy.buffer_size = 10_000;
+        bench_settings(&mut sac.net, &mut sac.off_policy, hidden);
         let t = off_policy_update(&mut Sac::agent(OBS, ACT, sac, 1, device), reps, 1, &mut rng);
         println!("{label:>8}  SAC update  {:>9.2} ms", t * 1e3);
         out.push((format!("sac_update_ms_{key}"), t * 1e3));
     }
     if wanted("td3") {
         let mut td3 = Td3Config::default();
-        td3.net.hidden = hidden.to_vec();
-        td3.net.adam.max_grad_norm = Some(10.0);
-        td3.off_policy.learning_starts = BATCH as u64;
-        td3.off_policy.buffer_size = 10_000;
+        bench_settings(&mut td3.net, &mut td3.off_policy, hidden);
         let mut agent = Td3::agent(OBS, ACT, td3, 1, device);
         let t = off_policy_update(&mut agent, reps, 2, &mut rng);
         println!(

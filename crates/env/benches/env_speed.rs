@@ -49,6 +49,17 @@ fn random_actions(rng: &mut EnvRng, n: usize) -> Vec<f32> {
         .collect()
 }
 
+/// Physics steps/s of a bare table built with `params`: the ball rolling about, every
+/// servo holding a target.
+fn bare_physics(params: &PhysicsParams) -> f64 {
+    let mut table = Table::new(params, [-0.5, -0.1]);
+    table.set_ball([-30.0, -40.0, BALL_RADIUS], [0.0, 150.0, 0.0]);
+    for i in 0..8 {
+        table.set_target(i, 3.0, 0.5);
+    }
+    rate(|| table.step())
+}
+
 /// Env steps/s of one env under `config` with random actions, resets included; prints
 /// the figure with the episodes' mean length and how many ended stagnant.
 fn env_loop(config: FoosballConfig) -> f64 {
@@ -80,14 +91,8 @@ fn main() {
     let config = FoosballConfig::default();
     let params = PhysicsParams::nominal(&config);
 
-    // Bare physics: the ball rolling about, every servo holding a target.
-    let mut table = Table::new(&params, [-0.5, -0.1]);
-    table.set_ball([-30.0, -40.0, BALL_RADIUS], [0.0, 150.0, 0.0]);
-    for i in 0..8 {
-        table.set_target(i, 3.0, 0.5);
-    }
     let mut out: Vec<(String, f64)> = Vec::new();
-    let physics = rate(|| table.step());
+    let physics = bare_physics(&params);
     out.push(("bare_physics_steps_per_s".into(), physics));
     println!("physics steps/s (one table, 1 thread):            {physics:>10.0}");
 
@@ -122,12 +127,7 @@ fn main() {
         rod_mount: RodMount::LockedAxes,
         ..config.clone()
     };
-    let mut table = Table::new(&PhysicsParams::nominal(&locked), [-0.5, -0.1]);
-    table.set_ball([-30.0, -40.0, BALL_RADIUS], [0.0, 150.0, 0.0]);
-    for i in 0..8 {
-        table.set_target(i, 3.0, 0.5);
-    }
-    let physics = rate(|| table.step());
+    let physics = bare_physics(&PhysicsParams::nominal(&locked));
     out.push(("bare_physics_steps_per_s_locked_axes".into(), physics));
     println!("physics steps/s, rod_mount locked_axes:           {physics:>10.0}");
     for frame_skip in [1, 5] {

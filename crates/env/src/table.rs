@@ -244,22 +244,20 @@ impl Table {
         let rods = (0..NUM_RODS)
             .map(|i| {
                 let (team, spec) = geometry::rod_of(i);
+                let locked = params.rod_mount == RodMount::LockedAxes;
                 let rotation = match team {
                     Team::Yellow => Rotation::IDENTITY,
                     // Half a turn about z. `from_rotation_z(PI)` is off by ~4e-8 rad, which
                     // the joint absorbs (its frame is the same) but a body turning about the
                     // locked world x does not: its servo then drifts. The joint mount keeps
                     // the rounded frame, so that its runs stay the same bit for bit.
-                    Team::Black if params.rod_mount == RodMount::LockedAxes => {
-                        Rotation::from_xyzw(0.0, 0.0, 1.0, 0.0)
-                    }
+                    Team::Black if locked => Rotation::from_xyzw(0.0, 0.0, 1.0, 0.0),
                     Team::Black => Rotation::from_rotation_z(PI),
                 };
                 let frame = Pose::from_parts(
                     Vector::new(0.0, geometry::rod_y(i), geometry::ROD_HEIGHT),
                     rotation,
                 );
-                let locked = params.rod_mount == RodMount::LockedAxes;
                 let body = world.insert_body(
                     RigidBodyBuilder::dynamic()
                         .pose(frame)
