@@ -165,8 +165,10 @@ fn encoder_params(config: &RunConfig) -> (f64, usize) {
 
 /// Estimated bytes the run's learner holds: f32 parameters of every network (an image's
 /// CNN per actor and per critic pair), and for each trained one its gradient and two Adam
-/// moments, plus the replay buffer's rows (observation and next observation: bytes for an
-/// image, f32 otherwise) or PPO's rollout.
+/// moments, plus the replay buffer's rows or PPO's rollout. A replay row holds its
+/// observation and next observation as f32, or for an image the ids of their planes and
+/// about one new frame's planes with their bookkeeping (hash, count, index entry: ~32
+/// bytes); an episode's first row adds one more frame, not counted.
 pub fn learner_bytes(config: &RunConfig) -> f64 {
     let (o, a, h) = (config.env.observation.dim(), ACTION_DIM, config.hidden());
     let (enc, f) = encoder_params(config);
@@ -177,15 +179,19 @@ pub fn learner_bytes(config: &RunConfig) -> f64 {
         Algo::Sac => (actor(2 * a) + twin, twin),
         Algo::Td3 => (actor(a) + twin, actor(a) + twin),
     };
-    let obs_bytes = match config.env.observation.kind {
-        ObservationKind::State => 4,
-        ObservationKind::Image => 1,
+    let ob = &config.env.observation;
+    let obs_pair_bytes = match ob.kind {
+        ObservationKind::State => 2 * 4 * o,
+        ObservationKind::Image => {
+            let plane = (ob.height * ob.width) as usize;
+            2 * 4 * ob.channels() + ob.frame_channels() * (plane + 32)
+        }
     };
     let rows = match &config.algorithm {
         AlgoConfig::Ppo(p) => ((p.n_steps * config.protocol.envs) * 4 * (o + a + 6)) as f64,
         _ => {
             let buffer = config.algorithm.off_policy().map_or(0, |c| c.buffer_size);
-            (buffer * (2 * o * obs_bytes + 4 * (a + 2))) as f64
+            (buffer * (obs_pair_bytes + 4 * (a + 2))) as f64
         }
     };
     4.0 * (4.0 * trained + targets) + rows
@@ -247,16 +253,23 @@ mod tests {
     }
 
     #[test]
-    fn image_observations_count_every_pixel_of_the_replay_buffer() {
+    fn image_observations_count_one_new_frame_per_replay_row() {
         let text = "algo = \"sac\"\n[sac.net]\nhidden = [64, 64]\n\
                     [env.observation]\nkind = \"image\"\n";
         let mut c = RunConfig::from_toml(text, std::path::Path::new("x.toml")).unwrap();
-        // 1e6 rows of two 4 x 84 x 84 observations in bytes: ~56 GB.
-        let e = check(&c, Some(24.0 * (1u64 << 30) as f64)).unwrap_err();
+        // 1e6 rows of one new 84 x 84 grey frame (whole stacks would be 56 GB).
+        let need = learner_bytes(&c);
+        assert!((7.0e9..7.5e9).contains(&need), "{need}");
+        check(&c, Some(24.0 * (1u64 << 30) as f64)).unwrap();
+        let e = check(&c, Some(4.0 * (1u64 << 30) as f64)).unwrap_err();
         assert!(e.contains("1000000 observations of 28224 values"), "{e}");
+        // Colour: three planes per frame.
+        c.env.observation.grayscale = false;
+        let colour = learner_bytes(&c);
+        assert!((2.9..3.0).contains(&(colour / need)), "{colour} vs {need}");
         if let AlgoConfig::Sac(s) = &mut c.algorithm {
             s.off_policy.buffer_size = 100_000;
         }
-        check(&c, Some(24.0 * (1u64 << 30) as f64)).unwrap();
+        check(&c, Some(4.0 * (1u64 << 30) as f64)).unwrap();
     }
 }

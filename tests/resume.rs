@@ -16,6 +16,14 @@ fn config(algo: &str, epochs: u32, steps_per_epoch: u64) -> RunConfig {
     RunConfig::from_toml(&text, Path::new("tiny.toml")).unwrap()
 }
 
+/// Image observations (12 x 20 grey, 2 frames) and a one-layer CNN for `algo`.
+fn on_pixels(algo: &str) -> String {
+    format!(
+        "[env.observation]\nkind = \"image\"\nwidth = 12\nheight = 20\nframe_stack = 2\n\
+         [{algo}.net.cnn]\nconvs = [{{ channels = 4, kernel = 3, stride = 2 }}]\nfeatures = 16\n"
+    )
+}
+
 fn read(path: &Path) -> Vec<u8> {
     std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
@@ -62,12 +70,14 @@ fn assert_same_run(a: &Path, b: &Path, label: &str) {
     );
 }
 
-/// Trains `algo` straight through, and again stopped at its evaluation at env step 200
-/// (in epoch 2 of 3, after the epoch-1 checkpoint, with epoch-2 logs and best networks
-/// already written) and resumed; the two must end the same.
-fn stopped_mid_epoch_and_resumed(algo: &str) {
-    let dir = scratch(&format!("resume-{algo}"));
-    let c = config(algo, 3, 150);
+/// Trains `algo` (its config text followed by `extra`) straight through, and again
+/// stopped at its evaluation at env step 200 (in epoch 2 of 3, after the epoch-1
+/// checkpoint, with epoch-2 logs and best networks already written) and resumed; the two
+/// must end the same.
+fn stopped_mid_epoch_and_resumed(algo: &str, extra: &str) {
+    let dir = scratch(&format!("resume-{algo}{}", extra.len()));
+    let text = tiny_config_text(algo, 3, 150) + extra;
+    let c = RunConfig::from_toml(&text, Path::new("tiny.toml")).unwrap();
     let straight = dir.join("straight");
     let broken = dir.join("broken");
     for run in [&straight, &broken] {
@@ -96,17 +106,24 @@ fn stopped_mid_epoch_and_resumed(algo: &str) {
 
 #[test]
 fn a_ppo_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_one() {
-    stopped_mid_epoch_and_resumed("ppo");
+    stopped_mid_epoch_and_resumed("ppo", "");
 }
 
 #[test]
 fn a_sac_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_one() {
-    stopped_mid_epoch_and_resumed("sac");
+    stopped_mid_epoch_and_resumed("sac", "");
+}
+
+/// The replay buffer's image planes (stored once each, shared between rows) are saved
+/// and restored with the rest of the training state.
+#[test]
+fn a_sac_run_on_pixels_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_one() {
+    stopped_mid_epoch_and_resumed("sac", &on_pixels("sac"));
 }
 
 #[test]
 fn a_td3_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_one() {
-    stopped_mid_epoch_and_resumed("td3");
+    stopped_mid_epoch_and_resumed("td3", "");
 }
 
 #[test]

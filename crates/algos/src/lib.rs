@@ -1,7 +1,8 @@
 //! Learning algorithms for foosball-rl: PPO, SAC and TD3 with Stable-Baselines3's
-//! definitions, the replay buffer SAC and TD3 share (`replay`), PPO's rollout buffer and
-//! GAE (`rollout_buffer`), the collector that steps a VecEnv for any of them (`rollout`),
-//! and the [`Agent`] shape through which one training loop drives all three.
+//! definitions, the replay buffer SAC and TD3 share (`replay`; image planes stored once
+//! each in `plane_store`), PPO's rollout buffer and GAE (`rollout_buffer`), the collector
+//! that steps a VecEnv for any of them (`rollout`), and the [`Agent`] shape through which
+//! one training loop drives all three.
 //!
 //! Each algorithm file states its update equations at the top (CleanRL style); the
 //! networks and Adam live in `foosball-nets`, the environments in `foosball-env`.
@@ -9,6 +10,7 @@
 pub mod agent;
 pub mod config;
 pub mod off_policy;
+pub mod plane_store;
 pub mod ppo;
 pub mod replay;
 pub mod rollout;

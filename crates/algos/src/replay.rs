@@ -1,8 +1,9 @@
 //! The replay buffer shared by SAC and TD3: a pre-allocated ring of flat rows, its
-//! observations as `f32`, or for images as bytes (a quarter of the memory; images arrive
-//! as `byte / 255`, so the bytes give back the very same floats).
+//! observations as `f32`, or for images as byte planes each stored once (see
+//! [`crate::plane_store`]; images arrive as `byte / 255`, so the bytes give back the very
+//! same floats).
 
-use foosball_env::observation::{byte_value, value_byte};
+use crate::plane_store::PlaneStore;
 use foosball_nets::{ObsShape, Snapshot, SnapshotError};
 use rand::Rng;
 
@@ -30,8 +31,7 @@ pub struct ReplayBuffer {
     obs_dim: usize,
     action_dim: usize,
     capacity: usize,
-    obs: ObsRows,
-    next_obs: ObsRows,
+    observations: Observations,
     actions: Vec<f32>,
     rewards: Vec<f32>,
     terminated: Vec<bool>,
@@ -44,23 +44,42 @@ impl ReplayBuffer {
     /// An empty buffer of `capacity` rows (zeroed memory is committed by the OS as rows
     /// are written, so a 1e6 buffer costs little until it fills).
     pub fn new(capacity: usize, obs_dim: usize, action_dim: usize) -> Self {
-        Self::with_storage(capacity, obs_dim, action_dim, false)
+        Self::with_storage(capacity, obs_dim, action_dim, None)
     }
 
-    /// [`ReplayBuffer::new`] for observations of `shape`: images are stored as bytes.
+    /// [`ReplayBuffer::new`] for observations of `shape`: images are stored as byte
+    /// planes, each distinct plane once.
     pub fn for_obs(capacity: usize, shape: ObsShape, action_dim: usize) -> Self {
-        let bytes = matches!(shape, ObsShape::Image { .. });
-        Self::with_storage(capacity, shape.dim(), action_dim, bytes)
+        let planes = match shape {
+            ObsShape::Image {
+                channels,
+                height,
+                width,
+            } => Some(PlaneStore::new(capacity, channels, height * width)),
+            ObsShape::Vector(_) => None,
+        };
+        Self::with_storage(capacity, shape.dim(), action_dim, planes)
     }
 
-    fn with_storage(capacity: usize, obs_dim: usize, action_dim: usize, bytes: bool) -> Self {
+    fn with_storage(
+        capacity: usize,
+        obs_dim: usize,
+        action_dim: usize,
+        planes: Option<PlaneStore>,
+    ) -> Self {
         assert!(capacity > 0, "replay capacity must be positive");
+        let observations = match planes {
+            Some(store) => Observations::Planes(store),
+            None => Observations::Floats {
+                obs: vec![0.0; capacity * obs_dim],
+                next_obs: vec![0.0; capacity * obs_dim],
+            },
+        };
         Self {
             obs_dim,
             action_dim,
             capacity,
-            obs: ObsRows::new(capacity * obs_dim, bytes),
-            next_obs: ObsRows::new(capacity * obs_dim, bytes),
+            observations,
             actions: vec![0.0; capacity * action_dim],
             rewards: vec![0.0; capacity],
             terminated: vec![false; capacity],
@@ -85,6 +104,15 @@ impl ReplayBuffer {
         self.capacity
     }
 
+    /// Bytes the observations and next observations hold (for images: the planes
+    /// stored so far and the rows' plane ids).
+    pub fn observation_bytes(&self) -> usize {
+        match &self.observations {
+            Observations::Floats { obs, next_obs } => 4 * (obs.len() + next_obs.len()),
+            Observations::Planes(store) => store.bytes_held(),
+        }
+    }
+
     /// Index the next row will be written at.
     pub fn position(&self) -> usize {
         self.pos
@@ -102,8 +130,7 @@ impl ReplayBuffer {
         timeout: bool,
     ) {
         let (o, a, i) = (self.obs_dim, self.action_dim, self.pos);
-        self.obs.write(i * o, obs);
-        self.next_obs.write(i * o, next_obs);
+        self.observations.write(i, o, obs, next_obs);
         self.actions[i * a..(i + 1) * a].copy_from_slice(action);
         self.rewards[i] = reward;
         self.terminated[i] = terminated;
@@ -118,9 +145,7 @@ impl ReplayBuffer {
         let (o, a, n) = (self.obs_dim, self.action_dim, self.len);
         snap.put_u64(format!("{prefix}.len"), n as u64);
         snap.put_u64(format!("{prefix}.pos"), self.pos as u64);
-        self.obs.save(snap, format!("{prefix}.obs"), n * o);
-        self.next_obs
-            .save(snap, format!("{prefix}.next_obs"), n * o);
+        self.observations.save(snap, prefix, n, o);
         snap.put_f32(format!("{prefix}.actions"), &self.actions[..n * a]);
         snap.put_f32(format!("{prefix}.rewards"), &self.rewards[..n]);
         snap.put_bools(format!("{prefix}.terminated"), &self.terminated[..n]);
@@ -145,8 +170,7 @@ impl ReplayBuffer {
         }
         let terminated = snap.bools_of_len(&key("terminated"), n)?;
         let timeouts = snap.bools_of_len(&key("timeouts"), n)?;
-        self.obs.load(snap, &key("obs"), n * o)?;
-        self.next_obs.load(snap, &key("next_obs"), n * o)?;
+        self.observations.load(snap, prefix, n, o)?;
         self.actions[..n * a].copy_from_slice(snap.f32s_of_len(&key("actions"), n * a)?);
         self.rewards[..n].copy_from_slice(snap.f32s_of_len(&key("rewards"), n)?);
         self.terminated[..n].copy_from_slice(&terminated);
@@ -169,12 +193,12 @@ impl ReplayBuffer {
         };
         for _ in 0..batch_size {
             let i = rng.random_range(0..self.len);
-            self.obs.read(i * o, o, &mut batch.obs);
+            self.observations.read(i, o, false, &mut batch.obs);
             batch
                 .actions
                 .extend_from_slice(&self.actions[i * a..(i + 1) * a]);
             batch.rewards.push(self.rewards[i]);
-            self.next_obs.read(i * o, o, &mut batch.next_obs);
+            self.observations.read(i, o, true, &mut batch.next_obs);
             let done = self.terminated[i] && !self.timeouts[i];
             batch.dones.push(if done { 1.0 } else { 0.0 });
         }
@@ -182,53 +206,61 @@ impl ReplayBuffer {
     }
 }
 
-/// Observation rows: floats, or bytes standing for `byte / 255`.
+/// Observation and next observation of each row: floats `[row][obs_dim]`, or image
+/// planes.
 #[derive(Clone, Debug, PartialEq)]
-enum ObsRows {
-    Floats(Vec<f32>),
-    Bytes(Vec<u8>),
+enum Observations {
+    Floats { obs: Vec<f32>, next_obs: Vec<f32> },
+    Planes(PlaneStore),
 }
 
-impl ObsRows {
-    fn new(len: usize, bytes: bool) -> Self {
-        if bytes {
-            ObsRows::Bytes(vec![0; len])
-        } else {
-            ObsRows::Floats(vec![0.0; len])
-        }
-    }
-
-    /// Stores `values` from index `at` (as bytes: `round(255 v)`, exact for `byte / 255`).
-    fn write(&mut self, at: usize, values: &[f32]) {
+impl Observations {
+    /// Stores row `row`'s pair, each `o` values long.
+    fn write(&mut self, row: usize, o: usize, obs: &[f32], next: &[f32]) {
         match self {
-            ObsRows::Floats(v) => v[at..at + values.len()].copy_from_slice(values),
-            ObsRows::Bytes(v) => {
-                for (b, &x) in v[at..at + values.len()].iter_mut().zip(values) {
-                    *b = value_byte(x);
-                }
+            Observations::Floats { obs: all, next_obs } => {
+                all[row * o..(row + 1) * o].copy_from_slice(obs);
+                next_obs[row * o..(row + 1) * o].copy_from_slice(next);
             }
+            Observations::Planes(store) => store.write(row, obs, next),
         }
     }
 
-    /// Appends the `len` values from index `at` to `out`.
-    fn read(&self, at: usize, len: usize, out: &mut Vec<f32>) {
+    /// Appends row `row`'s observation (or, with `next`, its next observation) to `out`.
+    fn read(&self, row: usize, o: usize, next: bool, out: &mut Vec<f32>) {
         match self {
-            ObsRows::Floats(v) => out.extend_from_slice(&v[at..at + len]),
-            ObsRows::Bytes(v) => out.extend(v[at..at + len].iter().map(|&b| byte_value(b))),
+            Observations::Floats { obs, next_obs } => {
+                let rows = if next { next_obs } else { obs };
+                out.extend_from_slice(&rows[row * o..(row + 1) * o]);
+            }
+            Observations::Planes(store) => store.read(row, next, out),
         }
     }
 
-    fn save<'a>(&'a self, snap: &mut Snapshot<'a>, name: String, len: usize) {
+    fn save<'a>(&'a self, snap: &mut Snapshot<'a>, prefix: &str, rows: usize, o: usize) {
         match self {
-            ObsRows::Floats(v) => snap.put_f32(name, &v[..len]),
-            ObsRows::Bytes(v) => snap.put_u8s(name, &v[..len]),
+            Observations::Floats { obs, next_obs } => {
+                snap.put_f32(format!("{prefix}.obs"), &obs[..rows * o]);
+                snap.put_f32(format!("{prefix}.next_obs"), &next_obs[..rows * o]);
+            }
+            Observations::Planes(store) => store.save(snap, prefix, rows),
         }
     }
 
-    fn load(&mut self, snap: &Snapshot<'_>, name: &str, len: usize) -> Result<(), SnapshotError> {
+    fn load(
+        &mut self,
+        snap: &Snapshot<'_>,
+        prefix: &str,
+        rows: usize,
+        o: usize,
+    ) -> Result<(), SnapshotError> {
         match self {
-            ObsRows::Floats(v) => v[..len].copy_from_slice(snap.f32s_of_len(name, len)?),
-            ObsRows::Bytes(v) => v[..len].copy_from_slice(snap.u8s_of_len(name, len)?),
+            Observations::Floats { obs, next_obs } => {
+                let n = rows * o;
+                obs[..n].copy_from_slice(snap.f32s_of_len(&format!("{prefix}.obs"), n)?);
+                next_obs[..n].copy_from_slice(snap.f32s_of_len(&format!("{prefix}.next_obs"), n)?);
+            }
+            Observations::Planes(store) => store.load(snap, prefix, rows)?,
         }
         Ok(())
     }
@@ -240,14 +272,12 @@ mod tests {
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
 
-    /// Every stored observation value.
-    fn values(rows: &ObsRows) -> Vec<f32> {
-        let len = match rows {
-            ObsRows::Floats(v) => v.len(),
-            ObsRows::Bytes(v) => v.len(),
-        };
+    /// Row `row`'s observation, or with `next` its next observation.
+    fn stored(buffer: &ReplayBuffer, row: usize, next: bool) -> Vec<f32> {
         let mut out = Vec::new();
-        rows.read(0, len, &mut out);
+        buffer
+            .observations
+            .read(row, buffer.obs_dim, next, &mut out);
         out
     }
 
@@ -272,8 +302,8 @@ mod tests {
         assert_eq!((buffer.len(), buffer.position()), (3, 2));
         // Rows 3 and 4 overwrote slots 0 and 1; slot 2 still holds row 2.
         assert_eq!(buffer.rewards, vec![3.0, 4.0, 2.0]);
-        assert_eq!(&values(&buffer.obs)[..2], &[3.0, -3.0]);
-        assert_eq!(&values(&buffer.next_obs)[4..], &[3.0, -3.0]);
+        assert_eq!(stored(&buffer, 0, false), [3.0, -3.0]);
+        assert_eq!(stored(&buffer, 2, true), [3.0, -3.0]);
         let batch = buffer.sample(200, &mut ChaCha8Rng::seed_from_u64(0));
         let mut seen: Vec<f32> = batch.rewards.clone();
         seen.sort_by(f32::total_cmp);
@@ -353,7 +383,7 @@ mod tests {
         };
         let mut bytes = ReplayBuffer::for_obs(4, shape, 1);
         let mut floats = ReplayBuffer::new(4, 4, 1);
-        assert!(matches!(bytes.obs, ObsRows::Bytes(_)));
+        assert!(matches!(bytes.observations, Observations::Planes(_)));
         for k in 0..6u8 {
             let obs: Vec<f32> = (0..4).map(|j| f32::from(40 * k + j) / 255.0).collect();
             let next: Vec<f32> = (0..4)
@@ -374,9 +404,6 @@ mod tests {
         let e = ReplayBuffer::new(4, 4, 1)
             .load_state(&snap, "r")
             .unwrap_err();
-        assert!(
-            e.to_string().contains("holds u8 values, expected f32"),
-            "{e}"
-        );
+        assert!(e.to_string().contains("`r.obs`: missing"), "{e}");
     }
 }

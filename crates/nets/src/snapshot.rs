@@ -162,12 +162,17 @@ impl<'a> Snapshot<'a> {
         self.u64(name).map(f64::from_bits)
     }
 
-    /// The bytes under `name`, which must number `len`.
-    pub fn u8s_of_len(&self, name: &str, len: usize) -> Result<&[u8], SnapshotError> {
+    /// The bytes stored under `name`.
+    pub fn u8s(&self, name: &str) -> Result<&[u8], SnapshotError> {
         match self.entry(name)? {
-            Entry::U8(v) => of_len(name, v, len),
+            Entry::U8(v) => Ok(v),
             e => Err(Self::wrong(name, "u8", e)),
         }
+    }
+
+    /// The bytes under `name`, which must number `len`.
+    pub fn u8s_of_len(&self, name: &str, len: usize) -> Result<&[u8], SnapshotError> {
+        self.u8s(name).and_then(|v| of_len(name, v, len))
     }
 
     /// The flags stored under `name`.
