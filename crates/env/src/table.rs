@@ -170,7 +170,8 @@ fn shaft_half_len() -> f32 {
 /// the walls), and an analytic bounding box, where the cylinder's is found by
 /// support-point queries (12 % of a locked-axes env step in `perf`, for the AABB updates
 /// and the CCD sweeps). The joint mount keeps the cylinder, so that its runs stay the same
-/// bit for bit.
+/// bit for bit: with the capsule, a trained TD3's test changed at rounding level (the
+/// bounding boxes differ, so contact pairs can be ordered differently).
 fn rod_colliders(spec: &RodSpec, capsule_shaft: bool) -> Vec<Collider> {
     let rod_groups = groups(ROD_GROUP, BALL_GROUP);
     let cylinder = ColliderBuilder::cylinder(shaft_half_len(), geometry::ROD_RADIUS)
