@@ -6,6 +6,7 @@
 use crate::agents::{build_agent, device};
 use crate::config::{Algo, AlgoConfig, RunConfig};
 use crate::train::TrainError;
+use foosball_algos::plane_store::PlaneStore;
 use foosball_algos::{ActMode, Experience, SacConfig, Td3Config};
 use foosball_env::layout::ACTION_DIM;
 use foosball_env::{Env, FoosballEnv, ObservationKind};
@@ -167,8 +168,8 @@ fn encoder_params(config: &RunConfig) -> (f64, usize) {
 /// CNN per actor and per critic pair), and for each trained one its gradient and two Adam
 /// moments, plus the replay buffer's rows or PPO's rollout. A replay row holds its
 /// observation and next observation as f32, or for an image the ids of their planes and
-/// about one new frame's planes with their bookkeeping (hash, count, index entry: ~32
-/// bytes); an episode's first row adds one more frame, not counted.
+/// about one new frame's planes with their bookkeeping ([`PlaneStore`]'s own sizes); an
+/// episode's first row adds one more frame, not counted.
 pub fn learner_bytes(config: &RunConfig) -> f64 {
     let (o, a, h) = (config.env.observation.dim(), ACTION_DIM, config.hidden());
     let (enc, f) = encoder_params(config);
@@ -184,7 +185,8 @@ pub fn learner_bytes(config: &RunConfig) -> f64 {
         ObservationKind::State => 2 * 4 * o,
         ObservationKind::Image => {
             let plane = (ob.height * ob.width) as usize;
-            2 * 4 * ob.channels() + ob.frame_channels() * (plane + 32)
+            PlaneStore::row_bytes(ob.channels())
+                + ob.frame_channels() * PlaneStore::slot_bytes(plane)
         }
     };
     let rows = match &config.algorithm {

@@ -20,6 +20,13 @@ use std::hash::Hasher;
 /// A row slot not yet written.
 const EMPTY: u32 = u32::MAX;
 
+/// The hash a plane's bytes are found again by.
+fn plane_hash(bytes: &[u8]) -> u64 {
+    let mut hasher = FxHasher::default();
+    hasher.write(bytes);
+    hasher.finish()
+}
+
 /// Image observation pairs `(obs, next_obs)` of up to `rows` transitions, as
 /// content-addressed byte planes (see the module doc).
 #[derive(Clone, Debug)]
@@ -80,10 +87,22 @@ impl PlaneStore {
         self.refs.len() - self.free.len()
     }
 
-    /// Bytes held: every slot ever allocated (bytes, hash, count, about 16 bytes of
-    /// index entry) and the rows' ids.
+    /// Bytes held: every slot ever allocated and the rows' ids.
     pub fn bytes_held(&self) -> usize {
-        self.refs.len() * (self.plane_len + 8 + 4 + 16) + 4 * self.ids.len()
+        let rows = self.ids.len() / (2 * self.planes);
+        self.refs.len() * Self::slot_bytes(self.plane_len) + rows * Self::row_bytes(self.planes)
+    }
+
+    /// Bytes one stored plane of `plane_len` bytes costs: its pixels, hash and row count,
+    /// and about 16 bytes of index entry.
+    pub fn slot_bytes(plane_len: usize) -> usize {
+        plane_len + size_of::<u64>() + size_of::<u32>() + 16
+    }
+
+    /// Bytes one row's plane ids take, for observations of `planes` planes (the
+    /// observation's and the next observation's).
+    pub fn row_bytes(planes: usize) -> usize {
+        2 * planes * size_of::<u32>()
     }
 
     /// Stores row `row`'s observation and next observation (values `byte / 255`, each
@@ -122,9 +141,7 @@ impl PlaneStore {
         for (b, &v) in self.scratch.iter_mut().zip(values) {
             *b = value_byte(v);
         }
-        let mut hasher = FxHasher::default();
-        hasher.write(&self.scratch);
-        let hash = hasher.finish();
+        let hash = plane_hash(&self.scratch);
         if let Some(&slot) = self.index.get(&hash)
             && self.plane(slot) == self.scratch.as_slice()
         {
@@ -213,13 +230,7 @@ impl PlaneStore {
             self.plane_len,
         );
         restored.bytes = bytes.to_vec();
-        restored.hashes = (0..slots)
-            .map(|s| {
-                let mut hasher = FxHasher::default();
-                hasher.write(&bytes[s * self.plane_len..(s + 1) * self.plane_len]);
-                hasher.finish()
-            })
-            .collect();
+        restored.hashes = bytes.chunks_exact(self.plane_len).map(plane_hash).collect();
         restored.refs = vec![0; slots];
         for (k, &id) in ids.iter().enumerate() {
             restored.ids[k] = id as u32;

@@ -5,8 +5,8 @@
 //! rod axis (limited to the servo's range by a joint limit) and turn about it. The other
 //! four are held by a generic joint ([`RodMount::Joint`]) or locked on the body
 //! ([`RodMount::LockedAxes`]). Two [`Servo`]s drive the free coordinates, applied as a
-//! force and a torque before every physics step. Only the ball touches anything: men and rods collide
-//! with the ball alone, and the table collides with the ball alone.
+//! force and a torque before every physics step. Only the ball touches anything: men and
+//! rods collide with the ball alone, and the table collides with the ball alone.
 
 use core::f32::consts::PI;
 
