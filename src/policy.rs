@@ -5,6 +5,7 @@ use crate::evaluation::{BatchPolicy, PlayedEpisode, play, write_test};
 use crate::metrics::TestMetrics;
 use crate::run_dir::{RunFileError, write_atomic};
 use crate::train::TrainError;
+use foosball_env::foosball::from_ball_frame;
 use foosball_env::layout::OBS_DIM;
 use foosball_env::opponent::{RandomOpponent, StaticOpponent};
 use foosball_env::scripted::Kicker;
@@ -40,9 +41,12 @@ impl ScriptedPolicy {
         }
     }
 
-    /// The policy over batches of observations; `seed` fixes the random policy's draws
-    /// (one stream, rows in batch order, so a fixed batch layout replays exactly).
-    pub fn batch_policy(self, seed: u64) -> Box<BatchPolicy<'static>> {
+    /// The policy over batches of observations of a table configured as `env`; `seed`
+    /// fixes the random policy's draws (one stream, rows in batch order, so a fixed batch
+    /// layout replays exactly). The hand-written controllers read the ball in world
+    /// coordinates and write linear commands: both are translated from and into `env`'s
+    /// `ball_frame` and `action_map`.
+    pub fn batch_policy(self, seed: u64, env: &FoosballConfig) -> Box<BatchPolicy<'static>> {
         let mut controller: Box<dyn Opponent> = match self {
             ScriptedPolicy::Shooter => Box::new(Kicker::shooter()),
             ScriptedPolicy::Dribbler => Box::new(Kicker::dribbler()),
@@ -50,11 +54,17 @@ impl ScriptedPolicy {
             ScriptedPolicy::Random => Box::new(RandomOpponent),
         };
         let mut rng = EnvRng::seed_from_u64(seed);
+        let (frame, map) = (env.ball_frame, env.action_map);
         Box::new(move |obs: &[f32]| {
             obs.chunks_exact(OBS_DIM)
                 .flat_map(|row| {
                     let row: &[f32; OBS_DIM] = row.try_into().expect("chunks of OBS_DIM");
-                    controller.act(row, &mut rng)
+                    let action = controller.act(&from_ball_frame(row, frame), &mut rng);
+                    if controller.linear_actions() {
+                        map.from_linear(action)
+                    } else {
+                        action
+                    }
                 })
                 .collect::<Vec<f32>>()
         })
@@ -91,7 +101,7 @@ impl Baseline {
                 self.policy.name()
             )));
         }
-        let mut act = self.policy.batch_policy(self.seed);
+        let mut act = self.policy.batch_policy(self.seed, &self.env);
         play(
             act.as_mut(),
             &self.env,

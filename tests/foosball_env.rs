@@ -12,9 +12,18 @@ mod common;
 
 use common::{NEUTRAL, env_with, placed, play_out};
 
-/// The paper preset: 10 ms agent steps, ball free in 3-D, starting near (-0.5, -0.1).
+/// The first paper preset: 10 ms agent steps, world frame, linear actions, a rolling ball
+/// free in 3-D, starting near (-0.5, -0.1). (The code's table has its own tests:
+/// `presets.rs` and `crates/env/tests/reference_parity.rs`.)
 fn ten_ms() -> FoosballConfig {
-    FoosballConfig::preset(Preset::Paper)
+    FoosballConfig::preset(Preset::PaperV1)
+}
+
+/// The first game with a goal ending the episode.
+fn end_on_goal() -> FoosballConfig {
+    let mut config = ten_ms();
+    config.rules.end_on_goal = true;
+    config
 }
 
 #[test]
@@ -118,11 +127,7 @@ fn the_time_limit_truncates() {
 
 #[test]
 fn a_goal_terminates_with_the_bonus_under_end_on_goal() {
-    let mut env = placed(
-        FoosballConfig::preset(Preset::EndOnGoal),
-        [5.0, 42.0],
-        [0.0, 300.0],
-    );
+    let mut env = placed(end_on_goal(), [5.0, 42.0], [0.0, 300.0]);
     let ts = play_out(&mut env, 100);
     let last = ts.last().unwrap();
     assert!(last.info.scored() && last.terminated, "{:?}", last.info);
@@ -133,7 +138,7 @@ fn a_goal_terminates_with_the_bonus_under_end_on_goal() {
 
 #[test]
 fn an_own_goal_is_conceded_with_the_penalty_under_end_on_goal() {
-    let mut config = FoosballConfig::preset(Preset::EndOnGoal);
+    let mut config = end_on_goal();
     config.reward.conceded_penalty = 500.0;
     config.rules.no_progress_steps = 1000;
     let mut env = placed(config, [5.0, -42.0], [0.0, -300.0]);

@@ -42,7 +42,7 @@ struct Args {
     /// Env steps per epoch (overrides `protocol.steps_per_epoch`).
     #[arg(long)]
     steps_per_epoch: Option<u64>,
-    /// Rule preset of the table (`paper_reachable`, `paper`, `reference`, `end_on_goal`):
+    /// Rule preset of the table (`reference`, `paper`, `end_on_goal`, `reference_v1`, `paper_v1`):
     /// replaces the configs' `[env]` by the preset's values (their opponent kept).
     #[arg(long)]
     preset: Option<Preset>,

@@ -3,29 +3,46 @@
 //! Every struct rejects unknown keys, and [`FoosballConfig::validate`] names the offending
 //! key (dotted path, e.g. `randomization.ball_mass_scale`) and value.
 //!
-//! A configuration starts from a [`Preset`] (`preset = "reference" | "paper_reachable" |
-//! "paper" | "end_on_goal"`, default `reference`): keys written in the file
-//! override the preset's values, keys left out take them. The presets' rules, with units:
+//! A configuration starts from a [`Preset`] (`preset = "reference" | "paper" |
+//! "end_on_goal" | "reference_v1" | "paper_v1"`, default `reference`): keys written in the
+//! file override the preset's values, keys left out take them. The presets, with units:
 //!
-//! | key | `paper_reachable` | `paper` | `reference` | `end_on_goal` |
-//! | --- | --- | --- | --- | --- |
-//! | `physics_dt` (s) | 0.002 | 0.002 | 0.002 | 0.002 |
-//! | `frame_skip` (physics steps per agent step) | 5 | 5 | 1 | 5 |
-//! | `max_episode_steps` (agent steps) | 4000 (40 s) | 4000 (40 s) | 20000 (40 s) | 4000 (40 s) |
-//! | `rules.stagnant_steps` (agent steps at <= `stagnant_speed` = 0.5 cm/s) | 10 (100 ms) | 10 (100 ms) | 10 (20 ms) | 10 (100 ms) |
-//! | `rules.no_progress_steps` (agent steps without +y) | 15 (150 ms) | 15 (150 ms) | 15 (30 ms) | 15 (150 ms) |
-//! | `rules.end_on_goal` | false | false | false | true |
-//! | `reward.goal` (cm) | (0, 64) | (0, 64) | (0, 65) | (0, 64) |
-//! | `reward.goal_line_y` (ball in goal when y >= it, cm) | 64 | 64 | 65 | 64 |
-//! | `reward.beta` | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 once |
-//! | `reward.zero_shaping_in_goal` (`alpha - d` is 0 in goal) | false | false | true | false |
-//! | `reward.conceded_penalty` (per step in own goal) | 0 | 0 | 1000 | 0 |
-//! | `start.y_mean` (cm) | -4.0 | -0.1 | -4.0 | -0.1 |
-//! | `ball.planar` (no vertical ball motion) | true | false | true | false |
+//! | key | `reference` | `paper` | `end_on_goal` | `reference_v1` | `paper_v1` |
+//! | --- | --- | --- | --- | --- | --- |
+//! | `ball_frame` (frame of every ball number, below) | joint | joint | joint | world | world |
+//! | `action_map` | saturating | saturating | saturating | linear | linear |
+//! | `slide_stops` | bumpers | bumpers | bumpers | control_range | control_range |
+//! | `ball.model` | reference | reference | reference | rolling | rolling |
+//! | `men_shape` | reference | reference | reference | box | box |
+//! | `contact_recycling` (rapier's; stale contacts at cm scale) | false | false | false | true | true |
+//! | `physics_dt` (s) | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 |
+//! | `frame_skip` (physics steps per agent step) | 1 | 5 | 5 | 1 | 5 |
+//! | `max_episode_steps` (agent steps) | 20000 (40 s) | 4000 (40 s) | 4000 (40 s) | 20000 (40 s) | 4000 (40 s) |
+//! | `rules.stagnant_steps` (agent steps at <= `stagnant_speed` = 0.5 cm/s) | 10 (20 ms) | 10 (100 ms) | 10 (100 ms) | 10 (20 ms) | 10 (100 ms) |
+//! | `rules.no_progress_steps` (agent steps without +y) | 15 (30 ms) | 15 (150 ms) | 15 (150 ms) | 15 (30 ms) | 15 (150 ms) |
+//! | `rules.end_on_goal` | false | false | true | false | false |
+//! | `reward.goal` (cm, in `ball_frame`) | (0, 65) | (0, 64) | (0, 64) | (0, 65) | (0, 64) |
+//! | `reward.goal_line_y` (in black's goal when y >= it) | 65 | 64 | 64 | 65 | 64 |
+//! | `reward.own_goal_line_y` (in yellow's goal when y <= -it) | 65 | 64 | 64 | 65 | 64 |
+//! | `reward.beta` | 1000 per step in goal | 1000 per step in goal | 1000 once | 1000 per step in goal | 1000 per step in goal |
+//! | `reward.zero_shaping_in_goal` (`alpha - d` is 0 in goal) | true | false | false | true | false |
+//! | `reward.conceded_penalty` (per step in own goal) | 1000 | 0 | 0 | 1000 | 0 |
+//! | `start.y_mean` (cm, in `ball_frame`) | 0.0 | -0.1 | -0.1 | -4.0 | -0.1 |
+//! | `ball.planar` (no vertical ball motion) | true | true | true | true | false |
+//!
+//! `reference` is the paper's code (Foosball_CU v2 gym and its MuJoCo model); `paper` and
+//! `end_on_goal` read the text's numbers in the code's frame on the code's table;
+//! `reference_v1` and `paper_v1` are the first games of this project (world frame, linear
+//! actions, a rolling, bouncing ball), kept so that the runs made on them still replay.
+//!
+//! In the `joint` frame a ball number is an offset from the ball body of the reference
+//! model at world (0, -4, 1.705) ([`BallFrame::JOINT_ORIGIN`]): the reference's goal line
+//! 65 is world y = 61, 0.9 cm past the mouth.
 
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-use crate::geometry::{self, BALL_MASS, GOAL_LINE_Y};
+use crate::geometry::{self, BALL_MASS, GOAL_LINE_Y, REFERENCE_BALL_DECELERATION};
+use crate::layout::{ACTION_DIM, action_slide};
 use crate::observation::ObservationConfig;
 
 /// A setting with a value it must not take.
@@ -58,42 +75,49 @@ impl ConfigError {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Preset {
-    /// The paper's rules with the ball its code used: as `Paper`, but the ball starts at
-    /// y ~ N(-4, 0.5²), in reach of yellow's midfield, and moves in the table's plane
-    /// (the reference model's ball has no z joint). The text's start at y ~ -0.1 is out
-    /// of every man's reach, and a free ball kicked hard flies off the table.
-    PaperReachable,
-    /// The paper's text made exact: `alpha - |ball_xy - (0, 64)| + beta * [ball_y >= 64]`
-    /// on every step, no end on a goal, the agent acting every 10 ms, ball start
-    /// y ~ N(-0.1, 0.5²), the ball free in 3-D.
-    Paper,
-    /// The paper's code (Foosball_CU v2 gym): one 2 ms physics step per agent step (so its
-    /// counters are 20 ms and 30 ms), goal at y >= 65 paying 1000 a step and no shaping
-    /// there, distance to (0, 65), -1000 per step in the own goal, ball start
-    /// y ~ N(-4, 0.5²) (its draws are offsets from the ball body at y = -4), planar ball.
-    /// The default: it is what produced the paper's figures, and agents learn on it.
+    /// The paper's code (Foosball_CU v2 gym on its MuJoCo model): every ball number in
+    /// the ball joint's frame (goal line y > 65, distance to (0, 65), -1000 per step with
+    /// the ball past -65, start y ~ N(0, 0.5²)), actions saturating at each actuator's
+    /// control range, the model's sliding ball with dry friction per axis and dead
+    /// contacts, slides stopped by the rods' bumpers, one 2 ms physics step per agent step
+    /// (its counters are 20 ms and 30 ms). The default: it is what produced the paper's
+    /// figures.
     #[default]
     Reference,
-    /// This project's first rule: a goal ends the episode and pays `beta` once.
+    /// The paper's text made exact on the code's table: `alpha - |ball_xy - (0, 64)| +
+    /// beta * [ball_y >= 64]` on every step (the text's numbers read in the code's frame),
+    /// no end on a goal, the agent acting every 10 ms, ball start y ~ N(-0.1, 0.5²).
+    Paper,
+    /// This project's first rule on the code's table: as `Paper`, but a goal ends the
+    /// episode and pays `beta` once.
     EndOnGoal,
+    /// The first `reference` of this project: the code's rules read in world
+    /// coordinates, linear actions, a rolling ball that bounces (restitution 0.6). The
+    /// game of `results/figure2-v1`.
+    ReferenceV1,
+    /// The first `paper` of this project: the text's numbers in world coordinates (its
+    /// start out of every man's reach), linear actions, a rolling ball free in 3-D.
+    PaperV1,
 }
 
 impl Preset {
     /// Every preset, in documentation order.
-    pub const ALL: [Preset; 4] = [
-        Preset::PaperReachable,
-        Preset::Paper,
+    pub const ALL: [Preset; 5] = [
         Preset::Reference,
+        Preset::Paper,
         Preset::EndOnGoal,
+        Preset::ReferenceV1,
+        Preset::PaperV1,
     ];
 
     /// Its name in configuration files.
     pub fn name(self) -> &'static str {
         match self {
-            Preset::PaperReachable => "paper_reachable",
-            Preset::Paper => "paper",
             Preset::Reference => "reference",
+            Preset::Paper => "paper",
             Preset::EndOnGoal => "end_on_goal",
+            Preset::ReferenceV1 => "reference_v1",
+            Preset::PaperV1 => "paper_v1",
         }
     }
 }
@@ -101,8 +125,16 @@ impl Preset {
 impl std::str::FromStr for Preset {
     type Err = String;
 
-    /// A preset by its name, e.g. `paper_reachable`.
+    /// A preset by its name, e.g. `reference_v1`.
     fn from_str(name: &str) -> Result<Self, String> {
+        if name == "paper_reachable" {
+            return Err(
+                "preset `paper_reachable` is gone: its reachable start is what `paper` \
+                        now has (the text's numbers read in the code's frame); its old game is \
+                        `paper_v1` with `start.y_mean = -4.0` and `ball.planar = true`"
+                    .into(),
+            );
+        }
         Self::ALL
             .into_iter()
             .find(|p| p.name() == name)
@@ -125,6 +157,22 @@ impl std::str::FromStr for Preset {
 pub struct FoosballConfig {
     /// The rule set the other keys start from.
     pub preset: Preset,
+    /// The frame every ball number of the rules, the start and the observation is given
+    /// in (`world`, or `joint`: the reference's ball joint coordinates).
+    pub ball_frame: BallFrame,
+    /// How an action in [-1, 1] becomes the rods' servo targets.
+    pub action_map: ActionMap,
+    /// What stops a rod's slide: its control range, or its rubber bumpers (shorter).
+    pub slide_stops: SlideStops,
+    /// The men's colliders (`box`: a symmetric leg block; `reference`: the leg where the
+    /// reference mesh has it at the ball's height).
+    pub men_shape: MenShape,
+    /// Rapier's contact recycling: a contact pair whose bodies moved less than 5 cm
+    /// (its 0.05 x our length unit of 100 cm) since its last full update keeps its old
+    /// contact normal and distance. At a table's scale that is a ghost collision: a ball
+    /// gliding 0.6 cm past a man's foot is deflected by the normal frozen when it was 1.8
+    /// cm away. Off in the current presets; on in the `*_v1` ones, whose runs were made so.
+    pub contact_recycling: bool,
     /// Length of one physics step, s (default 0.002, the reference's).
     pub physics_dt: f32,
     /// Physics steps per agent step (`reference`: 1, the agent acting every 2 ms; the paper
@@ -160,8 +208,13 @@ impl Default for FoosballConfig {
 impl FoosballConfig {
     /// The configuration of a preset (see the module docs).
     pub fn preset(preset: Preset) -> Self {
-        let paper = Self {
+        let paper_v1 = Self {
             preset,
+            ball_frame: BallFrame::World,
+            action_map: ActionMap::Linear,
+            slide_stops: SlideStops::ControlRange,
+            contact_recycling: true,
+            men_shape: MenShape::Box,
             physics_dt: 0.002,
             frame_skip: 5,
             max_episode_steps: 4000,
@@ -174,46 +227,167 @@ impl FoosballConfig {
             randomization: Randomization::default(),
             observation: ObservationConfig::default(),
         };
-        let reachable_ball = (
-            StartConfig {
-                y_mean: -4.0,
-                ..paper.start
-            },
-            BallConfig {
-                planar: true,
-                ..paper.ball
-            },
-        );
+        let code_reward = RewardConfig {
+            goal: [0.0, 65.0],
+            goal_line_y: 65.0,
+            own_goal_line_y: 65.0,
+            zero_shaping_in_goal: true,
+            conceded_penalty: 1000.0,
+            ..paper_v1.reward
+        };
+        let code_table = Self {
+            ball_frame: BallFrame::Joint,
+            action_map: ActionMap::Saturating,
+            slide_stops: SlideStops::Bumpers,
+            contact_recycling: false,
+            men_shape: MenShape::Reference,
+            ball: BallConfig::reference(),
+            ..paper_v1.clone()
+        };
         match preset {
-            Preset::Paper => paper,
-            Preset::PaperReachable => Self {
-                start: reachable_ball.0,
-                ball: reachable_ball.1,
-                ..paper
+            Preset::PaperV1 => paper_v1,
+            Preset::ReferenceV1 => Self {
+                frame_skip: 1,
+                max_episode_steps: 20_000,
+                reward: code_reward,
+                start: StartConfig {
+                    y_mean: -4.0,
+                    ..paper_v1.start
+                },
+                ball: BallConfig {
+                    planar: true,
+                    ..paper_v1.ball
+                },
+                ..paper_v1
+            },
+            Preset::Paper => code_table,
+            Preset::EndOnGoal => Self {
+                rules: EpisodeRules {
+                    end_on_goal: true,
+                    ..code_table.rules
+                },
+                ..code_table
             },
             Preset::Reference => Self {
                 frame_skip: 1,
                 max_episode_steps: 20_000,
-                reward: RewardConfig {
-                    goal: [0.0, 65.0],
-                    goal_line_y: 65.0,
-                    zero_shaping_in_goal: true,
-                    conceded_penalty: 1000.0,
-                    ..paper.reward
+                reward: code_reward,
+                start: StartConfig {
+                    y_mean: 0.0,
+                    ..code_table.start
                 },
-                start: reachable_ball.0,
-                ball: reachable_ball.1,
-                ..paper
-            },
-            Preset::EndOnGoal => Self {
-                rules: EpisodeRules {
-                    end_on_goal: true,
-                    ..paper.rules
-                },
-                ..paper
+                ..code_table
             },
         }
     }
+
+    /// The reward's goal point in world coordinates, cm.
+    pub fn goal_world(&self) -> [f32; 2] {
+        let [ox, oy, _] = self.ball_frame.origin();
+        [self.reward.goal[0] + ox, self.reward.goal[1] + oy]
+    }
+
+    /// World y past which the ball is in black's goal (inside the mouth), cm.
+    pub fn goal_line_world(&self) -> f32 {
+        self.reward.goal_line_y + self.ball_frame.origin()[1]
+    }
+
+    /// World y short of which the ball is in yellow's goal (inside the mouth), cm: the
+    /// own-goal line `-own_goal_line_y` carried into the world.
+    pub fn own_goal_line_world(&self) -> f32 {
+        -self.reward.own_goal_line_y + self.ball_frame.origin()[1]
+    }
+
+    /// The ball start's means in world coordinates, cm.
+    pub fn start_world(&self) -> [f32; 2] {
+        let [ox, oy, _] = self.ball_frame.origin();
+        [self.start.x_mean + ox, self.start.y_mean + oy]
+    }
+}
+
+/// The frame of the ball's numbers in the rules, the start and the observation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BallFrame {
+    /// World coordinates: the centre of the playfield at (0, 0), its surface at z = 0.
+    World,
+    /// The reference code's reading: the ball's joint coordinates, offsets from the ball
+    /// body at [`BallFrame::JOINT_ORIGIN`]. In the observation, the ball's third position
+    /// and velocity components are the joint frame's z (the reference model has no z
+    /// joint; its gym reads y's joint there, see the README), and the ball speed of the
+    /// stagnation rule is the norm of that observed velocity, as the code's.
+    #[default]
+    Joint,
+}
+
+impl BallFrame {
+    /// World position of the reference model's ball body, the origin of its joint
+    /// coordinates, cm.
+    pub const JOINT_ORIGIN: [f32; 3] = [0.0, -4.0, 1.705];
+
+    /// World position of this frame's origin, cm.
+    pub fn origin(self) -> [f32; 3] {
+        match self {
+            BallFrame::World => [0.0; 3],
+            BallFrame::Joint => Self::JOINT_ORIGIN,
+        }
+    }
+}
+
+/// How yellow's action (8 values in [-1, 1]) becomes servo targets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ActionMap {
+    /// `a * range`: the whole of [-1, 1] spans each joint's control range.
+    Linear,
+    /// The reference code's: `clamp(a * 20, -range, range)` (its gym's action space is
+    /// [-20, 20], which SB3 rescales the policy's [-1, 1] onto, and MuJoCo clamps each
+    /// control to its actuator's range): a turn is at its full ±2.5 rad once |a| > 0.125.
+    #[default]
+    Saturating,
+}
+
+/// The shape of the men's colliders: a torso block around the rod and a leg block below.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MenShape {
+    /// The leg block centred under the axis, ±1.2 cm along the table.
+    Box,
+    /// The leg block where the reference mesh's leg is at the ball's height: 1.3 cm
+    /// behind the axis to 0.9 cm in front of it.
+    #[default]
+    Reference,
+}
+
+impl ActionMap {
+    /// The action of this map that sets the same servo targets as `linear` does under the
+    /// linear map (exact: a saturating action inside the range is linear too).
+    pub fn from_linear(self, linear: [f32; ACTION_DIM]) -> [f32; ACTION_DIM] {
+        match self {
+            ActionMap::Linear => linear,
+            ActionMap::Saturating => core::array::from_fn(|i| {
+                let spec = &geometry::RODS[i / 2];
+                let range = if i == action_slide(i / 2) {
+                    spec.slide_range
+                } else {
+                    spec.turn_range
+                };
+                linear[i].clamp(-1.0, 1.0) * range / geometry::REFERENCE_ACTION_BOUND
+            }),
+        }
+    }
+}
+
+/// What ends a rod's slide travel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SlideStops {
+    /// A hard stop at the servo's control range.
+    ControlRange,
+    /// The rubber bumpers on the rod meet the side walls, short of the control range
+    /// (as measured in the reference model: [`crate::geometry::RodSpec::bumper_travel`]).
+    #[default]
+    Bumpers,
 }
 
 impl Serialize for FoosballConfig {
@@ -258,9 +432,9 @@ fn overlay(base: &mut toml::Table, top: toml::Table) {
 
 /// Per agent step: `alpha - d + beta * [in goal] - conceded_penalty * [in own goal]`, with
 /// `d = |ball_xy - goal|` (`alpha - d` is replaced by 0 in the goal under
-/// `zero_shaping_in_goal`). The ball is in
-/// black's goal when its y >= `goal_line_y` inside the mouth, in yellow's when y <=
-/// -`goal_line_y`. Under `rules.end_on_goal` the episode ends there, so the bonus or the
+/// `zero_shaping_in_goal`). The ball is in black's goal when its y >= `goal_line_y` inside
+/// the mouth, in yellow's when y <= -`own_goal_line_y`; every number is in the env's
+/// `ball_frame`. Under `rules.end_on_goal` the episode ends there, so the bonus or the
 /// penalty is paid once.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -274,8 +448,11 @@ pub struct RewardConfig {
     pub conceded_penalty: f32,
     /// Point the distance is measured to, cm (default (0, 64), the centre of black's goal).
     pub goal: [f32; 2],
-    /// The ball is in a goal when |y| >= this, cm (default 64; the reference's 65).
+    /// The ball is in black's goal when y >= this, cm (default 64; the reference's 65).
     pub goal_line_y: f32,
+    /// The ball is in yellow's goal when y <= -this, cm (default 64; the reference's 65,
+    /// which in its frame is world y = -69, behind the pocket: it never concedes).
+    pub own_goal_line_y: f32,
     /// The `alpha - d` term is 0 while the ball is in black's goal, which then pays
     /// `beta` alone (the reference code's rule; default false).
     pub zero_shaping_in_goal: bool,
@@ -289,6 +466,7 @@ impl Default for RewardConfig {
             conceded_penalty: 0.0,
             goal: [0.0, GOAL_LINE_Y],
             goal_line_y: GOAL_LINE_Y,
+            own_goal_line_y: GOAL_LINE_Y,
             zero_shaping_in_goal: false,
         }
     }
@@ -321,7 +499,8 @@ impl Default for EpisodeRules {
     }
 }
 
-/// Ball start: at rest on the playfield at x ~ N(x_mean, x_std²), y ~ N(y_mean, y_std²).
+/// Ball start: at rest on the playfield at x ~ N(x_mean, x_std²), y ~ N(y_mean, y_std²),
+/// means in the env's `ball_frame` (cm).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct StartConfig {
@@ -342,33 +521,78 @@ impl Default for StartConfig {
     }
 }
 
+/// How the ball moves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BallModel {
+    /// A solid sphere that rolls on the playfield, slowed by `rolling_resistance`, with
+    /// `friction` and `restitution` on every contact (this project's first ball).
+    Rolling,
+    /// The reference model's ball: it slides in the playfield's plane without turning
+    /// (two slide joints, no hinge), slowed by dry friction of `axis_deceleration` on x
+    /// and on y independently (its `frictionloss`), with no other floor friction; its
+    /// contacts use `friction` and `restitution` (calibrated: nearly dead). `planar` and
+    /// `rolling_resistance` do not apply.
+    #[default]
+    Reference,
+}
+
 /// Nominal ball and contact properties.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct BallConfig {
+    /// `rolling` or `reference`.
+    pub model: BallModel,
     /// kg (default 0.1).
     pub mass: f32,
-    /// Coulomb friction coefficient of ball contacts (default 0.3).
+    /// Coulomb friction coefficient of ball contacts (rolling: 0.3).
     pub friction: f32,
-    /// Restitution of ball contacts with men and walls (default 0.6).
+    /// Restitution of ball contacts with the walls and the floor, and with the men where
+    /// `men_restitution` is lower (rolling: 0.6).
     pub restitution: f32,
-    /// Rolling resistance: deceleration of a rolling ball as a fraction of g (default
+    /// Restitution of ball contacts with the men where it is the higher (rolling: 0.6;
+    /// reference: calibrated on the rebound off a man, which MuJoCo's soft contact against
+    /// the rounded foot makes livelier than off a wall).
+    pub men_restitution: f32,
+    /// Rolling resistance: deceleration of a rolling ball as a fraction of g (rolling:
     /// 0.015, about 15 cm/s²).
     pub rolling_resistance: f32,
+    /// Dry friction of the `reference` ball: its deceleration on each axis while it moves
+    /// along that axis, cm/s² (200: the reference's `frictionloss = 20` on a 0.1 kg ball).
+    pub axis_deceleration: f32,
     /// The ball moves in the playfield's plane only, its centre held at z = its radius
-    /// (the reference model's ball has no z joint). Default false: a kick can lift the
-    /// ball, and a ball lifted off the table ends the episode as a physics fault.
+    /// (the reference model's ball has no z joint). False: a kick can lift the ball, and
+    /// a ball lifted off the table ends the episode as a physics fault.
     pub planar: bool,
 }
 
 impl Default for BallConfig {
+    /// The rolling ball of the `*_v1` presets, free in 3-D.
     fn default() -> Self {
         Self {
+            model: BallModel::Rolling,
             mass: BALL_MASS,
             friction: 0.3,
             restitution: 0.6,
+            men_restitution: 0.6,
             rolling_resistance: 0.015,
+            axis_deceleration: REFERENCE_BALL_DECELERATION,
             planar: false,
+        }
+    }
+}
+
+impl BallConfig {
+    /// The reference model's ball, with the contact coefficients calibrated against it
+    /// (`tests/reference_parity.rs`).
+    pub fn reference() -> Self {
+        Self {
+            model: BallModel::Reference,
+            friction: geometry::REFERENCE_BALL_FRICTION,
+            restitution: geometry::REFERENCE_BALL_RESTITUTION,
+            men_restitution: geometry::REFERENCE_MEN_RESTITUTION,
+            planar: true,
+            ..Self::default()
         }
     }
 }
@@ -513,14 +737,27 @@ impl FoosballConfig {
         finite("reward.conceded_penalty", self.reward.conceded_penalty)?;
         finite("reward.goal[0]", self.reward.goal[0])?;
         finite("reward.goal[1]", self.reward.goal[1])?;
-        let line = self.reward.goal_line_y;
+        finite("reward.own_goal_line_y", self.reward.own_goal_line_y)?;
+        // Outside the mouth the ball's centre stays short of the end wall by its radius:
+        // a line past that is crossed in the mouth only.
+        let mouth = geometry::FIELD_HALF_LENGTH - geometry::BALL_RADIUS;
         let deepest = geometry::GOAL_POCKET_BACK - geometry::BALL_RADIUS;
-        if !(line.is_finite() && line > geometry::FIELD_HALF_LENGTH && line < deepest) {
+        let line = self.goal_line_world();
+        if !(line.is_finite() && line > mouth && line < deepest) {
             return Err(ConfigError::new(
                 "reward.goal_line_y",
                 format!(
-                    "must lie where the ball's centre can go in the goal pocket ({} < y < {deepest}), got {line}",
-                    geometry::FIELD_HALF_LENGTH,
+                    "must put the line where only a ball in the goal mouth reaches ({mouth} < world y < {deepest}; {:?} frame), got {}",
+                    self.ball_frame, self.reward.goal_line_y,
+                ),
+            ));
+        }
+        if self.own_goal_line_world() >= -mouth {
+            return Err(ConfigError::new(
+                "reward.own_goal_line_y",
+                format!(
+                    "must put the line where only a ball in yellow's goal mouth reaches (world y < -{mouth}; {:?} frame), got {}",
+                    self.ball_frame, self.reward.own_goal_line_y,
                 ),
             ));
         }
@@ -534,13 +771,17 @@ impl FoosballConfig {
         positive("ball.mass", self.ball.mass)?;
         non_negative("ball.friction", self.ball.friction)?;
         non_negative("ball.restitution", self.ball.restitution)?;
-        if self.ball.restitution > 1.0 {
-            return Err(ConfigError::new(
-                "ball.restitution",
-                format!("must be <= 1, got {}", self.ball.restitution),
-            ));
+        non_negative("ball.men_restitution", self.ball.men_restitution)?;
+        for (key, v) in [
+            ("ball.restitution", self.ball.restitution),
+            ("ball.men_restitution", self.ball.men_restitution),
+        ] {
+            if v > 1.0 {
+                return Err(ConfigError::new(key, format!("must be <= 1, got {v}")));
+            }
         }
         non_negative("ball.rolling_resistance", self.ball.rolling_resistance)?;
+        non_negative("ball.axis_deceleration", self.ball.axis_deceleration)?;
         let r = &self.randomization;
         range("randomization.ball_mass_scale", r.ball_mass_scale, false)?;
         range(

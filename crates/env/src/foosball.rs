@@ -16,7 +16,7 @@ use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
 use crate::EnvRng;
-use crate::config::{ConfigError, EpisodeRules, FoosballConfig};
+use crate::config::{ActionMap, BallFrame, ConfigError, EpisodeRules, FoosballConfig};
 use crate::env::{Env, EnvError, Transition, check_action};
 use crate::geometry::{self, NUM_RODS};
 use crate::layout::{
@@ -82,7 +82,8 @@ pub struct FoosballInfo {
     pub end: Option<EndReason>,
     /// Distance from the ball (x, y) to `reward.goal`, cm.
     pub goal_distance: f32,
-    /// Ball speed, cm/s.
+    /// Ball speed, cm/s, as the env's `ball_frame` reads the velocity (in the joint frame
+    /// `sqrt(vx² + 2 vy²)`, the reference gym's norm; see [`in_ball_frame`]).
     pub ball_speed: f32,
     /// Agent steps taken in this episode so far, this one included.
     pub steps: u32,
@@ -218,8 +219,9 @@ impl FoosballEnv {
         let rng = &mut self.rng;
         let ball_mass = nominal.ball_mass * uniform(rng, r.ball_mass_scale);
         let ball_friction = nominal.ball_friction * uniform(rng, r.ball_friction_scale);
-        let ball_restitution =
-            (nominal.ball_restitution * uniform(rng, r.ball_restitution_scale)).min(1.0);
+        let restitution_scale = uniform(rng, r.ball_restitution_scale);
+        let ball_restitution = (nominal.ball_restitution * restitution_scale).min(1.0);
+        let men_restitution = (nominal.men_restitution * restitution_scale).min(1.0);
         let servo_gain_scale = uniform(rng, r.servo_gain_scale);
         let position_noise_std = uniform(rng, r.position_noise_std);
         let [lo, hi] = r.action_latency_steps;
@@ -229,6 +231,7 @@ impl FoosballEnv {
                 ball_mass,
                 ball_friction,
                 ball_restitution,
+                men_restitution,
                 servo_gain_scale,
                 ..nominal
             },
@@ -256,7 +259,7 @@ impl FoosballEnv {
     /// position noise, or for images the stack with the picture of that noisy state
     /// (filling the stack when `first` of the episode).
     fn emit(&mut self, state: &[f32; OBS_DIM], out: &mut [f32], first: bool) {
-        let mut seen = *state;
+        let mut seen = in_ball_frame(state, self.config.ball_frame);
         let std = self
             .episode
             .as_ref()
@@ -287,39 +290,88 @@ impl FoosballEnv {
         self.episode.as_ref().map(|e| &e.state)
     }
 
+    /// Distance from the ball (world x, y) to the reward's goal point, cm.
     fn goal_distance(&self, ball: &[f32]) -> f32 {
-        let [gx, gy] = self.config.reward.goal;
+        let [gx, gy] = self.config.goal_world();
         ((ball[0] - gx).powi(2) + (ball[1] - gy).powi(2)).sqrt()
     }
 
-    fn set_targets(table: &mut Table, first_rod: usize, action: &[f32; ACTION_DIM]) {
+    /// Sets the four rods from `first_rod` on towards `action` (8 values, one team's).
+    fn set_targets(
+        table: &mut Table,
+        map: ActionMap,
+        first_rod: usize,
+        action: &[f32; ACTION_DIM],
+    ) {
+        let scale = |a: f32, range: f32| match map {
+            ActionMap::Linear => a.clamp(-1.0, 1.0) * range,
+            ActionMap::Saturating => (a * geometry::REFERENCE_ACTION_BOUND).clamp(-range, range),
+        };
         for r in 0..4 {
             let spec = &geometry::RODS[r];
             table.set_target(
                 first_rod + r,
-                action[action_slide(r)].clamp(-1.0, 1.0) * spec.slide_range,
-                action[action_turn(r)].clamp(-1.0, 1.0) * spec.turn_range,
+                scale(action[action_slide(r)], spec.slide_range),
+                scale(action[action_turn(r)], spec.turn_range),
             );
         }
     }
 }
 
-/// Which goal the ball at `(x, y)` is in: `(black's, yellow's)`.
-fn goals(x: f32, y: f32, line_y: f32) -> (bool, bool) {
+/// The world state with its ball position and velocity read in `frame` (rods unchanged).
+/// In the joint frame the third components repeat y's joint, as the reference gym reads
+/// them (its `ball_z` joint does not exist; MuJoCo's id -1 indexes the last joint, y's).
+pub fn in_ball_frame(state: &[f32; OBS_DIM], frame: BallFrame) -> [f32; OBS_DIM] {
+    let mut seen = *state;
+    if frame == BallFrame::Joint {
+        let [ox, oy, _] = BallFrame::JOINT_ORIGIN;
+        let (p, v) = (BALL_POS.start, BALL_VEL.start);
+        seen[p] = state[p] - ox;
+        seen[p + 1] = state[p + 1] - oy;
+        seen[p + 2] = seen[p + 1];
+        seen[v + 2] = state[v + 1];
+    }
+    seen
+}
+
+/// The inverse of [`in_ball_frame`] for what a hand-written policy reads: the ball's x
+/// and y back in world coordinates, its z at the joint frame's origin height (the joint
+/// frame's observation does not carry it).
+pub fn from_ball_frame(seen: &[f32; OBS_DIM], frame: BallFrame) -> [f32; OBS_DIM] {
+    let mut state = *seen;
+    if frame == BallFrame::Joint {
+        let [ox, oy, oz] = BallFrame::JOINT_ORIGIN;
+        let (p, v) = (BALL_POS.start, BALL_VEL.start);
+        state[p] = seen[p] + ox;
+        state[p + 1] = seen[p + 1] + oy;
+        state[p + 2] = oz;
+        state[v + 2] = 0.0;
+    }
+    state
+}
+
+/// Which goal the ball at world `(x, y)` is in: `(black's, yellow's)`, black's from
+/// `line_y` on, yellow's up to `own_line_y` (both world y).
+fn goals(x: f32, y: f32, line_y: f32, own_line_y: f32) -> (bool, bool) {
     let in_mouth = x.abs() <= geometry::GOAL_HALF_WIDTH;
-    (in_mouth && y >= line_y, in_mouth && y <= -line_y)
+    (in_mouth && y >= line_y, in_mouth && y <= own_line_y)
 }
 
 /// Where the ball is: in a goal that ends the episode, out of the table (or
 /// non-finite), or in play.
-fn ball_event(table: &Table, rules: &EpisodeRules, line_y: f32) -> Option<EndReason> {
+fn ball_event(
+    table: &Table,
+    rules: &EpisodeRules,
+    line_y: f32,
+    own_line_y: f32,
+) -> Option<EndReason> {
     let [x, y, z] = table.ball_position();
     let v = table.ball_velocity();
     if !(x.is_finite() && y.is_finite() && z.is_finite() && v.iter().all(|c| c.is_finite())) {
         return Some(EndReason::PhysicsFault);
     }
     if rules.end_on_goal {
-        match goals(x, y, line_y) {
+        match goals(x, y, line_y, own_line_y) {
             (true, _) => return Some(EndReason::Scored),
             (_, true) => return Some(EndReason::Conceded),
             _ => {}
@@ -350,10 +402,11 @@ impl Env for FoosballEnv {
         }
         let draw = self.draw_episode();
         let s = &self.config.start;
+        let [x_mean, y_mean] = self.config.start_world();
         let limit_x = geometry::FIELD_HALF_WIDTH - geometry::BALL_RADIUS;
         let limit_y = geometry::FIELD_HALF_LENGTH - geometry::BALL_RADIUS;
-        let x = (s.x_mean + s.x_std * gaussian(&mut self.rng)).clamp(-limit_x, limit_x);
-        let y = (s.y_mean + s.y_std * gaussian(&mut self.rng)).clamp(-limit_y, limit_y);
+        let x = (x_mean + s.x_std * gaussian(&mut self.rng)).clamp(-limit_x, limit_x);
+        let y = (y_mean + s.y_std * gaussian(&mut self.rng)).clamp(-limit_y, limit_y);
         let table = Table::new(&draw.physics, [x, y]);
         let state = Self::observe(&table);
         self.table = Some(table);
@@ -394,18 +447,23 @@ impl Env for FoosballEnv {
             [0.0; ACTION_DIM]
         };
         let black_view = layout::mirror_observation(&ep.state);
-        let black = self
+        let mut black = self
             .opponent
             .act(&black_view, &mut self.rng)
             .map(|a| if a.is_finite() { a } else { 0.0 });
-        Self::set_targets(table, 0, &applied);
-        Self::set_targets(table, 4, &black);
+        if self.opponent.linear_actions() {
+            black = self.config.action_map.from_linear(black);
+        }
+        let map = self.config.action_map;
+        Self::set_targets(table, map, 0, &applied);
+        Self::set_targets(table, map, 4, &black);
 
         let mut event = None;
-        let line_y = self.config.reward.goal_line_y;
+        let line_y = self.config.goal_line_world();
+        let own_line_y = self.config.own_goal_line_world();
         for _ in 0..self.config.frame_skip {
             table.step();
-            event = ball_event(table, &self.config.rules, line_y);
+            event = ball_event(table, &self.config.rules, line_y, own_line_y);
             if event.is_some() {
                 break;
             }
@@ -417,7 +475,10 @@ impl Env for FoosballEnv {
         }
 
         ep.steps += 1;
-        let speed = state[BALL_VEL].iter().map(|v| v * v).sum::<f32>().sqrt();
+        // The ball's speed as the frame reads it (the joint frame's repeated y counts
+        // twice, as in the reference's stagnation test).
+        let seen = in_ball_frame(&state, self.config.ball_frame);
+        let speed = seen[BALL_VEL].iter().map(|v| v * v).sum::<f32>().sqrt();
         let rules = &self.config.rules;
         ep.stagnant_steps = if speed <= rules.stagnant_speed {
             ep.stagnant_steps + 1
@@ -445,7 +506,7 @@ impl Env for FoosballEnv {
         ep.over = end.is_some();
         let steps = ep.steps;
 
-        let (in_goal, in_own_goal) = goals(state[BALL_POS.start], y, line_y);
+        let (in_goal, in_own_goal) = goals(state[BALL_POS.start], y, line_y, own_line_y);
         ep.scored |= in_goal;
         ep.conceded |= in_own_goal;
         let (episode_scored, episode_conceded) = (ep.scored, ep.conceded);

@@ -28,6 +28,21 @@ pub const GOAL_POCKET_BACK: f32 = 68.12;
 /// |y| at which a ball counts as in a goal: the paper's goal centre (0, ±64).
 pub const GOAL_LINE_Y: f32 = 64.0;
 
+/// Dry friction of the reference model's ball on each axis, cm/s²: `frictionloss = 20` on
+/// each of its slide joints, over its 0.1 kg.
+pub const REFERENCE_BALL_DECELERATION: f32 = 200.0;
+/// Friction coefficient of the `reference` ball's contacts with men and walls (calibrated
+/// against the reference model, see `tests/reference_parity.rs`).
+pub const REFERENCE_BALL_FRICTION: f32 = 0.01;
+/// Restitution of the `reference` ball's contacts (calibrated likewise: MuJoCo's soft
+/// contacts with solref 0.004 and damping ratio 1 are nearly dead).
+pub const REFERENCE_BALL_RESTITUTION: f32 = 0.09;
+/// Restitution of the `reference` ball's contacts with the men (calibrated on the
+/// rebound off black's midfield after a kick).
+pub const REFERENCE_MEN_RESTITUTION: f32 = 0.3;
+/// The reference gym's action bound: its action space is [-20, 20] on every dimension.
+pub const REFERENCE_ACTION_BOUND: f32 = 20.0;
+
 /// Height of every rod axis above the playfield, cm.
 pub const ROD_HEIGHT: f32 = 7.75;
 /// Radius of the steel rods, cm.
@@ -52,6 +67,12 @@ pub mod foosman {
     /// Leg-and-foot half extents across (x) and along (y) the table, cm.
     pub const LEG_HALF_X: f32 = 1.12;
     pub const LEG_HALF_Y: f32 = 1.2;
+    /// The reference mesh's lower leg and foot along the table, from the rod axis, cm
+    /// (`[back, front]`, front being the way the team attacks): its extent where the ball
+    /// can touch it (0.5 to 3.5 cm above the playfield), measured on the mesh as placed
+    /// in the reference model. The leg box of [`MenShape::Box`](crate::config::MenShape)
+    /// is ±`LEG_HALF_Y` about the axis instead: 0.3 cm deeper in front.
+    pub const REFERENCE_LEG_Y: [f32; 2] = [-1.3, 0.9];
 }
 
 /// Which side a rod belongs to. Yellow is the agent and attacks +y; black defends y = +60.12.
@@ -86,6 +107,9 @@ pub struct RodSpec {
     pub rod_mass: f32,
     /// Slide control range: targets lie in [-slide_range, slide_range] cm.
     pub slide_range: f32,
+    /// Slide travel allowed by the rod's rubber bumpers, [low, high] cm (measured in the
+    /// reference model by commanding each end of the control range).
+    pub bumper_travel: [f32; 2],
     /// Slide servo stiffness (kg/s², i.e. force per cm) and damping (kg/s).
     pub slide_kp: f32,
     pub slide_kv: f32,
@@ -104,6 +128,7 @@ pub const RODS: [RodSpec; 4] = [
         men_x: &[-20.676, 0.0, 20.676],
         rod_mass: 1.202_68,
         slide_range: 10.0,
+        bumper_travel: [-8.70, 8.70],
         slide_kp: 20_000.0,
         slide_kv: 300.0,
         turn_range: 2.5,
@@ -116,6 +141,7 @@ pub const RODS: [RodSpec; 4] = [
         men_x: &[-11.938, 11.938],
         rod_mass: 1.402_07,
         slide_range: 20.0,
+        bumper_travel: [-17.43, 17.43],
         slide_kp: 10_000.0,
         slide_kv: 200.0,
         turn_range: 2.5,
@@ -128,6 +154,7 @@ pub const RODS: [RodSpec; 4] = [
         men_x: &[-23.95, -11.975, 0.0, 11.975, 23.95],
         rod_mass: 1.1264,
         slide_range: 7.0,
+        bumper_travel: [-5.42, 5.42],
         slide_kp: 40_000.0,
         slide_kv: 500.0,
         turn_range: 2.5,
@@ -140,6 +167,7 @@ pub const RODS: [RodSpec; 4] = [
         men_x: &[-18.175, 0.0, 18.175],
         rod_mass: 1.257_06,
         slide_range: 12.0,
+        bumper_travel: [-11.20, 11.20],
         slide_kp: 20_000.0,
         slide_kv: 300.0,
         turn_range: 2.5,

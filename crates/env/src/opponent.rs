@@ -17,6 +17,14 @@ pub trait Opponent: Send {
 
     /// Called at every environment reset.
     fn reset(&mut self) {}
+
+    /// Its actions are written for the linear map (a fraction of each joint's range), as
+    /// hand-written controllers are: the env translates them into its own `action_map`
+    /// ([`crate::config::ActionMap::from_linear`]). False (the default): they are in the
+    /// env's own action space, as a random or a learned policy's.
+    fn linear_actions(&self) -> bool {
+        false
+    }
 }
 
 /// Holds every rod at neutral: feet down, centred (the paper's opponent).
@@ -53,6 +61,10 @@ impl ScriptedOpponent {
 }
 
 impl Opponent for ScriptedOpponent {
+    fn linear_actions(&self) -> bool {
+        true
+    }
+
     fn act(&mut self, obs: &[f32; OBS_DIM], _rng: &mut EnvRng) -> [f32; ACTION_DIM] {
         let mut action = [0.0; ACTION_DIM];
         for rod in 0..4 {

@@ -95,6 +95,10 @@ fn aim(obs: &[f32; OBS_DIM], ball: (f32, f32)) -> f32 {
 }
 
 impl Opponent for Kicker {
+    fn linear_actions(&self) -> bool {
+        true
+    }
+
     fn act(&mut self, obs: &[f32; OBS_DIM], _rng: &mut EnvRng) -> [f32; ACTION_DIM] {
         let ball = (obs[BALL_POS.start], obs[BALL_POS.start + 1]);
         let mut action = [0.0; ACTION_DIM];

@@ -12,7 +12,7 @@ use core::f32::consts::PI;
 
 use rapier3d::prelude::*;
 
-use crate::config::{FoosballConfig, RodMount};
+use crate::config::{BallModel, FoosballConfig, MenShape, RodMount, SlideStops};
 use crate::geometry::{self, NUM_RODS, RodSpec, Team, foosman};
 use crate::servo::Servo;
 
@@ -34,10 +34,23 @@ pub struct PhysicsParams {
     pub ball_mass: f32,
     /// Friction coefficient of every ball contact.
     pub ball_friction: f32,
-    /// Restitution of every ball contact.
+    /// Restitution of the ball's contacts with the table (and with the men, where the men's
+    /// is lower: rapier keeps the larger of the two).
     pub ball_restitution: f32,
+    /// Restitution of the men's contacts (with the ball).
+    pub men_restitution: f32,
+    /// The men's colliders.
+    pub men_shape: MenShape,
     /// Deceleration of a freely rolling ball, as a fraction of g.
     pub rolling_resistance: f32,
+    /// How the ball moves.
+    pub ball_model: BallModel,
+    /// Dry friction of the `reference` ball on each axis, cm/s².
+    pub axis_deceleration: f32,
+    /// What stops the rods' slides.
+    pub slide_stops: SlideStops,
+    /// Rapier's contact recycling (see [`FoosballConfig::contact_recycling`]).
+    pub contact_recycling: bool,
     /// Multiplier on every servo's kp and kv.
     pub servo_gain_scale: f32,
     /// The ball's centre stays at z = its radius (no vertical motion).
@@ -54,7 +67,13 @@ impl PhysicsParams {
             ball_mass: config.ball.mass,
             ball_friction: config.ball.friction,
             ball_restitution: config.ball.restitution,
+            men_restitution: config.ball.men_restitution,
+            men_shape: config.men_shape,
             rolling_resistance: config.ball.rolling_resistance,
+            ball_model: config.ball.model,
+            axis_deceleration: config.ball.axis_deceleration,
+            slide_stops: config.slide_stops,
+            contact_recycling: config.contact_recycling,
             servo_gain_scale: 1.0,
             ball_planar: config.ball.planar,
             rod_mount: config.rod_mount,
@@ -104,7 +123,18 @@ pub struct Table {
     rods: Vec<Rod>,
     /// Servo targets per rod: `[slide cm, angle rad]`.
     targets: [[f32; 2]; NUM_RODS],
-    rolling_force: f32,
+    ball_drag: BallDrag,
+}
+
+/// The floor's pull on the moving ball.
+#[derive(Debug, Clone, Copy)]
+enum BallDrag {
+    /// A rolling ball: this force (kg cm/s²) against its horizontal velocity while it
+    /// touches the floor.
+    Rolling(f32),
+    /// The reference's sliding ball: dry friction of this deceleration (cm/s²) on x and
+    /// on y independently.
+    PerAxis(f32),
 }
 
 fn groups(member: Group, filter: Group) -> InteractionGroups {
@@ -156,6 +186,14 @@ fn table_colliders() -> Vec<Collider> {
     out
 }
 
+/// The slide limits of a rod kind, cm.
+fn slide_limits(spec: &RodSpec, stops: SlideStops) -> [f32; 2] {
+    match stops {
+        SlideStops::ControlRange => [-spec.slide_range, spec.slide_range],
+        SlideStops::Bumpers => spec.bumper_travel,
+    }
+}
+
 /// Half the steel rod's length, cm: it spans the playfield at any slide.
 fn shaft_half_len() -> f32 {
     geometry::FIELD_HALF_WIDTH + geometry::RODS[1].slide_range
@@ -172,7 +210,12 @@ fn shaft_half_len() -> f32 {
 /// and the CCD sweeps). The joint mount keeps the cylinder, so that its runs stay the same
 /// bit for bit: with the capsule, a trained TD3's test changed at rounding level (the
 /// bounding boxes differ, so contact pairs can be ordered differently).
-fn rod_colliders(spec: &RodSpec, capsule_shaft: bool) -> Vec<Collider> {
+fn rod_colliders(
+    spec: &RodSpec,
+    capsule_shaft: bool,
+    men: MenShape,
+    men_restitution: f32,
+) -> Vec<Collider> {
     let rod_groups = groups(ROD_GROUP, BALL_GROUP);
     let cylinder = ColliderBuilder::cylinder(shaft_half_len(), geometry::ROD_RADIUS)
         .rotation(Vector::new(0.0, 0.0, PI / 2.0))
@@ -198,20 +241,28 @@ fn rod_colliders(spec: &RodSpec, capsule_shaft: bool) -> Vec<Collider> {
     let torso_vol = foosman::TORSO_HALF_X * foosman::TORSO_HALF_Y * torso_half_z;
     let leg_vol = foosman::LEG_HALF_X * foosman::LEG_HALF_Y * leg_half_z;
     let torso_mass = foosman::MASS * torso_vol / (torso_vol + leg_vol);
+    // The leg's extent along the table in the rod's frame (+y: the way the team attacks).
+    let [leg_back, leg_front] = match men {
+        MenShape::Box => [-foosman::LEG_HALF_Y, foosman::LEG_HALF_Y],
+        MenShape::Reference => foosman::REFERENCE_LEG_Y,
+    };
+    let leg_y = 0.5 * (leg_front + leg_back);
     for &x in spec.men_x {
         let torso_z = 0.5 * (foosman::HEAD_TOP - foosman::WAIST);
         let leg_z = -0.5 * (foosman::WAIST + foosman::FOOT_BOTTOM);
-        for (hx, hy, hz, z, m) in [
+        for (hx, hy, y, hz, z, m) in [
             (
                 foosman::TORSO_HALF_X,
                 foosman::TORSO_HALF_Y,
+                0.0,
                 torso_half_z,
                 torso_z,
                 torso_mass,
             ),
             (
                 foosman::LEG_HALF_X,
-                foosman::LEG_HALF_Y,
+                0.5 * (leg_front - leg_back),
+                leg_y,
                 leg_half_z,
                 leg_z,
                 foosman::MASS - torso_mass,
@@ -219,11 +270,11 @@ fn rod_colliders(spec: &RodSpec, capsule_shaft: bool) -> Vec<Collider> {
         ] {
             out.push(
                 ColliderBuilder::cuboid(hx, hy, hz)
-                    .translation(Vector::new(x, 0.0, z))
+                    .translation(Vector::new(x, y, z))
                     .mass(m)
                     .collision_groups(rod_groups)
                     .friction(0.0)
-                    .restitution(0.0)
+                    .restitution(men_restitution)
                     .build(),
             );
         }
@@ -255,6 +306,7 @@ impl Table {
         world.gravity = Vector::new(0.0, 0.0, -geometry::GRAVITY);
         world.integration_parameters.dt = params.dt;
         world.integration_parameters.length_unit = 100.0;
+        world.integration_parameters.contact_recycling = params.contact_recycling;
 
         let ground = world.insert_body(RigidBodyBuilder::fixed());
         for c in table_colliders() {
@@ -294,14 +346,15 @@ impl Table {
                         })
                         .can_sleep(false),
                 );
-                let colliders: Vec<ColliderHandle> = rod_colliders(spec, locked)
-                    .into_iter()
-                    .map(|c| {
-                        world
-                            .colliders
-                            .insert_with_parent(c, body, &mut world.bodies)
-                    })
-                    .collect();
+                let colliders: Vec<ColliderHandle> =
+                    rod_colliders(spec, locked, params.men_shape, params.men_restitution)
+                        .into_iter()
+                        .map(|c| {
+                            world
+                                .colliders
+                                .insert_with_parent(c, body, &mut world.bodies)
+                        })
+                        .collect();
                 let held = if locked {
                     JointAxesMask::empty()
                 } else {
@@ -313,7 +366,7 @@ impl Table {
                 let joint = GenericJointBuilder::new(held)
                     .local_frame1(frame)
                     .local_frame2(Pose::IDENTITY)
-                    .limits(JointAxis::LinX, [-spec.slide_range, spec.slide_range])
+                    .limits(JointAxis::LinX, slide_limits(spec, params.slide_stops))
                     .contacts_enabled(false)
                     .build();
                 world.insert_impulse_joint(ground, body, joint);
@@ -368,15 +421,21 @@ impl Table {
             })
             .collect();
 
+        let sliding = params.ball_model == BallModel::Reference;
         let ball = world.insert_body(
             RigidBodyBuilder::dynamic()
                 .translation(Vector::new(ball_xy[0], ball_xy[1], geometry::BALL_RADIUS))
                 .ccd_enabled(true)
-                .locked_axes(if params.ball_planar {
+                .locked_axes(if sliding {
+                    // Two slide joints and nothing else, as the reference's ball; the
+                    // floor then bears no weight, so it adds no friction either.
+                    LockedAxes::TRANSLATION_LOCKED_Z | LockedAxes::ROTATION_LOCKED
+                } else if params.ball_planar {
                     LockedAxes::TRANSLATION_LOCKED_Z
                 } else {
                     LockedAxes::empty()
                 })
+                .gravity_scale(if sliding { 0.0 } else { 1.0 })
                 .can_sleep(false),
         );
         let ball_collider = ColliderBuilder::ball(geometry::BALL_RADIUS)
@@ -396,10 +455,16 @@ impl Table {
             ball,
             rods,
             targets: [[0.0; 2]; NUM_RODS],
-            rolling_force: ROLLING_INERTIA_FACTOR
-                * params.rolling_resistance
-                * params.ball_mass
-                * geometry::GRAVITY,
+            ball_drag: if sliding {
+                BallDrag::PerAxis(params.axis_deceleration)
+            } else {
+                BallDrag::Rolling(
+                    ROLLING_INERTIA_FACTOR
+                        * params.rolling_resistance
+                        * params.ball_mass
+                        * geometry::GRAVITY,
+                )
+            },
         }
     }
 
@@ -434,7 +499,7 @@ impl Table {
             body.add_force(rod.axis * f, false);
             body.add_torque(rod.axis * t, false);
         }
-        self.apply_rolling_resistance(dt);
+        self.apply_ball_drag(dt);
         self.world.step();
         for i in 0..self.rods.len() {
             let raw = self.raw_angle(i);
@@ -443,18 +508,30 @@ impl Table {
         }
     }
 
-    /// A rolling ball slows at `rolling_resistance * g`: a force at its centre, opposing its
-    /// horizontal velocity, while it touches the playfield (never reversing it).
-    fn apply_rolling_resistance(&mut self, dt: f32) {
+    /// The floor's drag on the ball for the coming step, as a force at its centre that
+    /// never reverses the velocity it opposes: a rolling ball slows at
+    /// `rolling_resistance * g` against its horizontal velocity while it touches the
+    /// playfield; the reference's sliding ball at `axis_deceleration` on x and on y
+    /// independently (MuJoCo's `frictionloss` on each slide joint).
+    fn apply_ball_drag(&mut self, dt: f32) {
         let ball = &mut self.world.bodies[self.ball];
         ball.reset_forces(false);
-        let on_floor = ball.translation().z < geometry::BALL_RADIUS + 0.05;
         let v = ball.linvel();
-        let speed = (v.x * v.x + v.y * v.y).sqrt();
-        if on_floor && speed > 0.0 {
-            let stop = ROLLING_INERTIA_FACTOR * ball.mass() * speed / dt;
-            let f = self.rolling_force.min(stop);
-            ball.add_force(Vector::new(-v.x / speed * f, -v.y / speed * f, 0.0), false);
+        let m = ball.mass();
+        match self.ball_drag {
+            BallDrag::Rolling(force) => {
+                let on_floor = ball.translation().z < geometry::BALL_RADIUS + 0.05;
+                let speed = (v.x * v.x + v.y * v.y).sqrt();
+                if on_floor && speed > 0.0 {
+                    let stop = ROLLING_INERTIA_FACTOR * m * speed / dt;
+                    let f = force.min(stop);
+                    ball.add_force(Vector::new(-v.x / speed * f, -v.y / speed * f, 0.0), false);
+                }
+            }
+            BallDrag::PerAxis(deceleration) => {
+                let axis = |v: f32| -v.signum() * (m * deceleration).min(m * v.abs() / dt);
+                ball.add_force(Vector::new(axis(v.x), axis(v.y), 0.0), false);
+            }
         }
     }
 
@@ -535,7 +612,7 @@ mod tests {
         for spec in &geometry::RODS {
             let [cylinder, capsule] = [false, true].map(|capsule_shaft| {
                 let body = world.insert_body(RigidBodyBuilder::dynamic());
-                for c in rod_colliders(spec, capsule_shaft) {
+                for c in rod_colliders(spec, capsule_shaft, MenShape::Box, 0.0) {
                     world
                         .colliders
                         .insert_with_parent(c, body, &mut world.bodies);
