@@ -255,11 +255,12 @@ impl FoosballEnv {
         obs
     }
 
-    /// Writes the observation of `state` into `out`: the state plus this episode's
-    /// position noise, or for images the stack with the picture of that noisy state
-    /// (filling the stack when `first` of the episode).
+    /// Writes the observation of the world `state` into `out`: the state plus this
+    /// episode's position noise, read in the env's `ball_frame`, or for images the stack
+    /// with the picture of that noisy world state (filling the stack when `first` of the
+    /// episode).
     fn emit(&mut self, state: &[f32; OBS_DIM], out: &mut [f32], first: bool) {
-        let mut seen = in_ball_frame(state, self.config.ball_frame);
+        let mut seen = *state;
         let std = self
             .episode
             .as_ref()
@@ -272,7 +273,8 @@ impl FoosballEnv {
             }
         }
         match self.frames.as_mut() {
-            None => out.copy_from_slice(&seen),
+            // The state in the ball frame; pictures are drawn from world coordinates.
+            None => out.copy_from_slice(&in_ball_frame(&seen, self.config.ball_frame)),
             Some(frames) => {
                 if first {
                     frames.reset(&seen);
