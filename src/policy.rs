@@ -59,12 +59,7 @@ impl ScriptedPolicy {
             obs.chunks_exact(OBS_DIM)
                 .flat_map(|row| {
                     let row: &[f32; OBS_DIM] = row.try_into().expect("chunks of OBS_DIM");
-                    let action = controller.act(&from_ball_frame(row, frame), &mut rng);
-                    if controller.linear_actions() {
-                        map.from_linear(action)
-                    } else {
-                        action
-                    }
+                    controller.act_in(map, &from_ball_frame(row, frame), &mut rng)
                 })
                 .collect::<Vec<f32>>()
         })

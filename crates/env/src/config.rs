@@ -360,6 +360,15 @@ pub enum MenShape {
 }
 
 impl ActionMap {
+    /// The servo target that action value `a` sets on a joint whose control range is
+    /// `[-range, range]`.
+    pub fn target(self, a: f32, range: f32) -> f32 {
+        match self {
+            ActionMap::Linear => a.clamp(-1.0, 1.0) * range,
+            ActionMap::Saturating => (a * geometry::REFERENCE_ACTION_BOUND).clamp(-range, range),
+        }
+    }
+
     /// The action of this map that sets the same servo targets as `linear` does under the
     /// linear map (exact: a saturating action inside the range is linear too).
     pub fn from_linear(self, linear: [f32; ACTION_DIM]) -> [f32; ACTION_DIM] {

@@ -305,16 +305,12 @@ impl FoosballEnv {
         first_rod: usize,
         action: &[f32; ACTION_DIM],
     ) {
-        let scale = |a: f32, range: f32| match map {
-            ActionMap::Linear => a.clamp(-1.0, 1.0) * range,
-            ActionMap::Saturating => (a * geometry::REFERENCE_ACTION_BOUND).clamp(-range, range),
-        };
         for r in 0..4 {
             let spec = &geometry::RODS[r];
             table.set_target(
                 first_rod + r,
-                scale(action[action_slide(r)], spec.slide_range),
-                scale(action[action_turn(r)], spec.turn_range),
+                map.target(action[action_slide(r)], spec.slide_range),
+                map.target(action[action_turn(r)], spec.turn_range),
             );
         }
     }
@@ -449,14 +445,11 @@ impl Env for FoosballEnv {
             [0.0; ACTION_DIM]
         };
         let black_view = layout::mirror_observation(&ep.state);
-        let mut black = self
-            .opponent
-            .act(&black_view, &mut self.rng)
-            .map(|a| if a.is_finite() { a } else { 0.0 });
-        if self.opponent.linear_actions() {
-            black = self.config.action_map.from_linear(black);
-        }
         let map = self.config.action_map;
+        let black = self
+            .opponent
+            .act_in(map, &black_view, &mut self.rng)
+            .map(|a| if a.is_finite() { a } else { 0.0 });
         Self::set_targets(table, map, 0, &applied);
         Self::set_targets(table, map, 4, &black);
 

@@ -5,7 +5,7 @@
 use rand::Rng;
 
 use crate::EnvRng;
-use crate::config::OpponentKind;
+use crate::config::{ActionMap, OpponentKind};
 use crate::geometry::RODS;
 use crate::layout::{ACTION_DIM, BALL_POS, OBS_DIM, action_slide, action_turn};
 
@@ -24,6 +24,22 @@ pub trait Opponent: Send {
     /// env's own action space, as a random or a learned policy's.
     fn linear_actions(&self) -> bool {
         false
+    }
+
+    /// [`Opponent::act`] written in `map`'s terms: translated from the linear map where
+    /// [`Opponent::linear_actions`] says so.
+    fn act_in(
+        &mut self,
+        map: ActionMap,
+        obs: &[f32; OBS_DIM],
+        rng: &mut EnvRng,
+    ) -> [f32; ACTION_DIM] {
+        let action = self.act(obs, rng);
+        if self.linear_actions() {
+            map.from_linear(action)
+        } else {
+            action
+        }
     }
 }
 
