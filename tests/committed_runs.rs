@@ -40,3 +40,8 @@ fn replays(run: &str) {
 fn a_run_of_the_first_game_replays_byte_for_byte() {
     replays("results/figure2-v1/sac-seed0");
 }
+
+#[test]
+fn a_run_of_the_codes_game_replays_byte_for_byte() {
+    replays("results/figure2/ppo-seed0");
+}
