@@ -313,9 +313,9 @@ pub enum BallFrame {
     World,
     /// The reference code's reading: the ball's joint coordinates, offsets from the ball
     /// body at [`BallFrame::JOINT_ORIGIN`]. In the observation, the ball's third position
-    /// and velocity components are the joint frame's z (the reference model has no z
-    /// joint; its gym reads y's joint there, see the README), and the ball speed of the
-    /// stagnation rule is the norm of that observed velocity, as the code's.
+    /// and velocity components repeat y's (the gym reads a `ball_z` joint the model does
+    /// not have, and MuJoCo's id -1 indexes y's joint; see the README), and the ball speed
+    /// of the stagnation rule is the norm of that observed velocity, as the code's.
     #[default]
     Joint,
 }
