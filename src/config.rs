@@ -2,6 +2,7 @@
 //! environment and the algorithm's settings. Unknown keys and invalid values are refused
 //! with the file, the line and the dotted key.
 
+use crate::evaluation::TestActions;
 use foosball_algos::{NetConfig, OffPolicyConfig, PpoConfig, SacConfig, Td3Config};
 use foosball_env::{ConfigError, FoosballConfig, ObservationKind};
 use foosball_nets::Backend;
@@ -53,8 +54,11 @@ pub struct Protocol {
     pub eval_every: u64,
     /// Deterministic episodes per evaluation, on held-out seeds.
     pub eval_episodes: u32,
-    /// Deterministic episodes of the final test, on seeds held out from both.
+    /// Episodes of the final test, on seeds held out from both.
     pub test_episodes: u32,
+    /// How the agent acts in the final test: `deterministic` (the paper's text, default)
+    /// or `stochastic` (its code). Evaluations during training are always deterministic.
+    pub test_actions: TestActions,
     /// Rollout workers (environments stepped together).
     pub envs: usize,
     /// Rayon threads for env workers and the backend; 0 means one per core.
@@ -79,6 +83,7 @@ impl Default for Protocol {
             eval_every: 3_000,
             eval_episodes: 10,
             test_episodes: 1_000,
+            test_actions: TestActions::Deterministic,
             envs: 1,
             threads: 0,
             backend: None,

@@ -1,20 +1,44 @@
-//! The evaluation API: foosball episodes of a policy (a trained agent's deterministic
-//! action or a scripted controller) on held-out seeds, [`EVAL_BATCH`] played side by side
-//! by `foosball_algos::play_deterministic`, what each leaves ([`PlayedEpisode`]) and the
-//! test files they make.
+//! The evaluation API: foosball episodes of a policy (a trained agent's deterministic or
+//! sampled action, or a scripted controller) on held-out seeds, [`EVAL_BATCH`] played side
+//! by side by `foosball_algos::play_episodes`, what each leaves ([`PlayedEpisode`]) and
+//! the test files they make.
 
 use crate::metrics::{EpisodeSummary, TestMetrics};
 use crate::run_dir::{trajectories_bytes, write_atomic};
 use crate::train::TrainError;
+use foosball_algos::{Agent, EpisodeLog, play_episodes, sampled};
 pub use foosball_algos::{BatchPolicy, deterministic};
-use foosball_algos::{EpisodeLog, play_deterministic};
-use foosball_env::seeding::derive_seed;
+use foosball_env::seeding::{ACTION_SAMPLING, derive_seed};
 use foosball_env::{FoosballConfig, FoosballEnv, FoosballInfo, Transition, layout};
+use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 /// Deterministic episodes played side by side in evaluations and tests (part of the
 /// protocol: it fixes the policy's batch shape).
 pub const EVAL_BATCH: usize = 10;
+
+/// How a trained agent acts in a test: the paper's text tests deterministically, its code
+/// (`model.predict(obs)`, SB3's default `deterministic=False`) samples.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum TestActions {
+    /// The policy's deterministic action (the text's test).
+    #[default]
+    Deterministic,
+    /// A draw from the policy's action distribution (the code's test); TD3's policy has
+    /// no distribution, so its draw is its deterministic action, as in SB3.
+    Stochastic,
+}
+
+impl TestActions {
+    /// Lower-case name, as in TOML.
+    pub fn name(self) -> &'static str {
+        match self {
+            TestActions::Deterministic => "deterministic",
+            TestActions::Stochastic => "stochastic",
+        }
+    }
+}
 
 /// One episode's steps: the table's states acted on `[T, 38]` (noise-free, whatever the
 /// agent observes), actions `[T, action_dim]`, rewards `[T]`.
@@ -96,9 +120,30 @@ pub fn play(
         .map(|k| derive_seed(seed, stream, k))
         .collect();
     let mut envs = foosball_envs(env, EVAL_BATCH.min(seeds.len()))?;
-    Ok(play_deterministic(policy, &mut envs, &seeds, |seed| {
+    Ok(play_episodes(policy, &mut envs, &seeds, |seed| {
         PlayedEpisode::new(seed, record)
     })?)
+}
+
+/// Episodes played by a trained `agent` acting as `actions` says on the `stream`'s seeds
+/// `0..n` (derived from the run seed `seed`); sampled actions draw their noise from
+/// `derive_seed(seed, ACTION_SAMPLING, stream)`, so the same call gives the same episodes.
+pub fn play_agent(
+    agent: &mut dyn Agent,
+    actions: TestActions,
+    env: &FoosballConfig,
+    seed: u64,
+    stream: u64,
+    n: u32,
+    record: bool,
+) -> Result<Vec<PlayedEpisode>, TrainError> {
+    match actions {
+        TestActions::Deterministic => play(&mut deterministic(agent), env, seed, stream, n, record),
+        TestActions::Stochastic => {
+            let noise = derive_seed(seed, ACTION_SAMPLING, stream);
+            play(&mut sampled(agent, noise), env, seed, stream, n, record)
+        }
+    }
 }
 
 /// Writes `metrics.json`, `metrics.md` and `trajectories.bin` into `dir`.

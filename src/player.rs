@@ -3,7 +3,7 @@
 
 use crate::agents::{build_agent, device};
 use crate::config::RunConfig;
-use crate::evaluation::{PlayedEpisode, deterministic, play, write_test};
+use crate::evaluation::{PlayedEpisode, TestActions, play_agent, write_test};
 use crate::metrics::TestMetrics;
 use crate::policy::{Baseline, ScriptedPolicy};
 use foosball_env::seeding::TEST_ENVS;
@@ -38,6 +38,13 @@ pub struct PlayerArgs {
     /// Saved networks of the run (default best).
     #[arg(long, value_enum, requires = "run")]
     pub checkpoint: Option<Checkpoint>,
+    /// How the run's networks act (default the run's `protocol.test_actions`).
+    #[arg(long, value_enum, requires = "run")]
+    pub actions: Option<TestActions>,
+    /// Short for `--actions stochastic`: actions drawn from the policy, as the paper
+    /// code's test does.
+    #[arg(long, requires = "run", conflicts_with = "actions")]
+    pub stochastic: bool,
     /// A scripted policy instead of a run's networks.
     #[arg(long, value_enum, conflicts_with_all = ["run", "checkpoint"])]
     pub policy: Option<ScriptedPolicy>,
@@ -63,6 +70,8 @@ pub enum Player {
         config: Box<RunConfig>,
         /// Which networks.
         checkpoint: Checkpoint,
+        /// How they act.
+        actions: TestActions,
     },
     /// A scripted policy on a table.
     Scripted(Baseline),
@@ -94,10 +103,16 @@ impl Player {
                         checkpoint.name()
                     ));
                 }
+                let actions = match (args.stochastic, args.actions) {
+                    (true, _) => TestActions::Stochastic,
+                    (false, Some(a)) => a,
+                    (false, None) => config.protocol.test_actions,
+                };
                 Ok(Player::Networks {
                     dir: dir.clone(),
                     config: Box::new(config),
                     checkpoint,
+                    actions,
                 })
             }
             (None, None) => Err("give --run RUN or --policy NAME".into()),
@@ -127,8 +142,9 @@ impl Player {
                 dir,
                 config,
                 checkpoint,
+                actions,
             } => format!(
-                "{} {} ({} networks of {})",
+                "{} {} ({} networks of {}, {} actions)",
                 config.algo(),
                 config
                     .hidden()
@@ -137,28 +153,31 @@ impl Player {
                     .collect::<Vec<_>>()
                     .join("x"),
                 checkpoint.name(),
-                dir.display()
+                dir.display(),
+                actions.name()
             ),
             Player::Scripted(b) => format!("{} under {}", b.policy.name(), b.env.preset.name()),
         }
     }
 
-    /// Plays `episodes` deterministic episodes on the test seeds (steps kept when
-    /// `record`), in seed order.
+    /// Plays `episodes` test episodes on the test seeds (steps kept when `record`), in
+    /// seed order.
     pub fn play(&self, episodes: u32, record: bool) -> Result<Vec<PlayedEpisode>, String> {
         match self {
             Player::Networks {
                 dir,
                 config,
                 checkpoint,
+                actions,
             } => {
                 let device = device(config).map_err(|e| e.to_string())?;
                 let mut agent = build_agent(config, &device);
                 agent
                     .load(&dir.join(checkpoint.name()))
                     .map_err(|e| e.to_string())?;
-                play(
-                    &mut deterministic(agent.as_mut()),
+                play_agent(
+                    agent.as_mut(),
+                    *actions,
                     &config.env,
                     config.protocol.seed,
                     TEST_ENVS,

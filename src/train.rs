@@ -5,7 +5,7 @@
 use crate::agents::{build_agent, device};
 use crate::checkpoint::{self, CheckpointError, LoopState};
 use crate::config::RunConfig;
-use crate::evaluation::{deterministic, foosball_envs, play, write_test};
+use crate::evaluation::{TestActions, foosball_envs, play_agent, write_test};
 use crate::metrics::TestMetrics;
 use crate::run_dir::{RunFileError, write_atomic};
 use crate::run_log::{CSV_FILES, RunLog, Speed};
@@ -239,8 +239,9 @@ pub fn train(
                 }
                 if steps >= next_eval {
                     next_eval += p.eval_every;
-                    let played = play(
-                        &mut deterministic(agent.as_mut()),
+                    let played = play_agent(
+                        agent.as_mut(),
+                        TestActions::Deterministic,
                         &config.env,
                         config.protocol.seed,
                         EVAL_ENVS,
@@ -278,8 +279,9 @@ pub fn train(
             report(&progress(steps, Event::Checkpoint(epoch)));
         }
         report(&progress(agent.env_steps(), Event::Test));
-        let played = play(
-            &mut deterministic(agent.as_mut()),
+        let played = play_agent(
+            agent.as_mut(),
+            p.test_actions,
             &config.env,
             config.protocol.seed,
             TEST_ENVS,

@@ -79,6 +79,12 @@ fn malformed_files_and_wrong_sections_are_refused() {
         e.starts_with("bad.toml:2:") && e.contains("`hinge`, expected `joint` or `locked_axes`"),
         "{e}"
     );
+    let e = error("algo = \"sac\"\n[protocol]\ntest_actions = \"greedy\"\n");
+    assert!(
+        e.starts_with("bad.toml:3:")
+            && e.contains("`greedy`, expected `deterministic` or `stochastic`"),
+        "{e}"
+    );
     let e = error("algo = \"sac\"\n[ppo]\nn_steps = 8\n");
     assert!(e.contains("ppo: section for another algorithm"), "{e}");
     let missing = RunConfig::load(Path::new("no/such.toml")).unwrap_err();

@@ -1,11 +1,13 @@
-//! Deterministic evaluation episodes played side by side: seed order, reproducibility,
-//! trajectories consistent with the summaries, and agreement with one-at-a-time play.
+//! Evaluation episodes played side by side: seed order, reproducibility, trajectories
+//! consistent with the summaries, agreement with one-at-a-time play, and sampled
+//! (stochastic) tests that repeat exactly from their seed.
 
 use foosball_rl::algos::{
-    Agent, BatchPolicy, Sac, SacConfig, deterministic, play_deterministic, play_episode,
+    ActMode, Agent, BatchPolicy, Ppo, PpoConfig, Sac, SacConfig, Td3, Td3Config, deterministic,
+    play_episode, play_episodes,
 };
 use foosball_rl::env::{FoosballConfig, FoosballEnv};
-use foosball_rl::evaluation::PlayedEpisode;
+use foosball_rl::evaluation::{PlayedEpisode, TestActions, play_agent};
 use foosball_rl::metrics::TestMetrics;
 use foosball_rl::nets::Backend;
 
@@ -36,7 +38,7 @@ fn envs(n: usize) -> Vec<FoosballEnv> {
 
 /// Foosball episodes of `policy` from `seeds`, `n` side by side.
 fn play(policy: &mut BatchPolicy<'_>, n: usize, seeds: &[u64], record: bool) -> Vec<PlayedEpisode> {
-    play_deterministic(policy, &mut envs(n), seeds, |seed| {
+    play_episodes(policy, &mut envs(n), seeds, |seed| {
         PlayedEpisode::new(seed, record)
     })
     .unwrap()
@@ -98,4 +100,73 @@ fn an_episode_ends_the_same_whichever_env_and_neighbours_play_it() {
     for n in [2, 4, 9] {
         assert_eq!(play(&mut scripted, n, &seeds, true), one, "{n} envs");
     }
+}
+
+/// Actions of a recorded episode set, flattened.
+fn actions(played: &[PlayedEpisode]) -> Vec<f32> {
+    played
+        .iter()
+        .flat_map(|e| e.trajectory.as_ref().unwrap().actions.clone())
+        .collect()
+}
+
+#[test]
+fn a_stochastic_test_samples_and_repeats_from_its_seed_whatever_came_before() {
+    let mut c = PpoConfig::default();
+    c.net.hidden = vec![32];
+    let device = Backend::default_cpu().unwrap().device().unwrap();
+    let agents: [(&str, Box<dyn Agent>); 2] = [
+        ("sac", Box::new(agent())),
+        ("ppo", Box::new(Ppo::new(38, 8, c, 3, &device))),
+    ];
+    for (name, mut agent) in agents {
+        let mut run = |how| play_agent(agent.as_mut(), how, &config(), 9, 3, 4, true).unwrap();
+        let sampled = run(TestActions::Stochastic);
+        assert_eq!(run(TestActions::Stochastic), sampled, "{name}");
+        let fixed = run(TestActions::Deterministic);
+        assert_ne!(
+            actions(&sampled),
+            actions(&fixed),
+            "{name}: sampling moves actions"
+        );
+        assert!(actions(&sampled).iter().all(|a| (-1.0..=1.0).contains(a)));
+    }
+    // Exploring in between moves the agent's own stream, not the test's.
+    let mut agent = agent();
+    let sampled = play_agent(
+        &mut agent,
+        TestActions::Stochastic,
+        &config(),
+        9,
+        3,
+        4,
+        true,
+    );
+    for _ in 0..3 {
+        agent.act(&[0.0; 38], ActMode::Explore);
+    }
+    let again = play_agent(
+        &mut agent,
+        TestActions::Stochastic,
+        &config(),
+        9,
+        3,
+        4,
+        true,
+    );
+    assert_eq!(again.unwrap(), sampled.unwrap());
+}
+
+#[test]
+fn td3_samples_its_deterministic_action_as_sb3_predict_does() {
+    let mut c = Td3Config::default();
+    c.net.hidden = vec![32];
+    let device = Backend::default_cpu().unwrap().device().unwrap();
+    let mut agent = Td3::agent(38, 8, c, 3, &device);
+    let run =
+        |agent: &mut dyn Agent, how| play_agent(agent, how, &config(), 9, 3, 3, true).unwrap();
+    assert_eq!(
+        run(&mut agent, TestActions::Stochastic),
+        run(&mut agent, TestActions::Deterministic)
+    );
 }

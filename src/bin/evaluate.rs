@@ -3,6 +3,7 @@
 
 use clap::Parser;
 use foosball_rl::cli::finish;
+use foosball_rl::evaluation::TestActions;
 use foosball_rl::player::{Player, PlayerArgs};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -20,8 +21,9 @@ struct Args {
     /// Test episodes (default: the run's `protocol.test_episodes`, 1000 for a policy).
     #[arg(long)]
     episodes: Option<u32>,
-    /// Where to write metrics and trajectories (default `RUN/evaluate-<checkpoint>`, or
-    /// `baselines/<policy>-<preset>` for a policy).
+    /// Where to write metrics and trajectories (default `RUN/evaluate-<checkpoint>`, with
+    /// `-stochastic` after it for sampled actions, or `baselines/<policy>-<preset>` for a
+    /// policy).
     #[arg(long)]
     out: Option<PathBuf>,
 }
@@ -34,8 +36,14 @@ fn run(args: &Args) -> Result<String, String> {
     };
     let out = args.out.clone().unwrap_or_else(|| match &player {
         Player::Networks {
-            dir, checkpoint, ..
-        } => dir.join(format!("evaluate-{}", checkpoint.name())),
+            dir,
+            checkpoint,
+            actions,
+            ..
+        } => dir.join(match actions {
+            TestActions::Deterministic => format!("evaluate-{}", checkpoint.name()),
+            TestActions::Stochastic => format!("evaluate-{}-stochastic", checkpoint.name()),
+        }),
         Player::Scripted(b) => PathBuf::from(format!(
             "baselines/{}-{}",
             b.policy.name(),

@@ -77,6 +77,8 @@ fn episodes(args: &Args) -> Result<Source, String> {
             PlayerArgs {
                 run: Some(run),
                 checkpoint: None,
+                actions: None,
+                stochastic: false,
                 ..
             },
         ) => Some(run.join("test/trajectories.bin")),

@@ -10,6 +10,12 @@ pub enum ActMode {
     Explore,
     /// The policy's deterministic action (evaluation and test).
     Deterministic,
+    /// A draw from the policy's action distribution, as SB3's `predict(deterministic=False)`
+    /// gives it (the paper code's test): no bookkeeping, no warm-up actions, noise from the
+    /// sampling stream that [`Agent::seed_sampling`] sets. PPO draws from its Gaussian and
+    /// clips, SAC from its squashed Gaussian; TD3's policy is deterministic (SB3 adds its
+    /// exploration noise outside `predict`), so its draw is its deterministic action.
+    Sample,
 }
 
 /// One vec-env step as the learner sees it; every slice is in env order.
@@ -100,6 +106,9 @@ pub trait Agent {
     fn action_dim(&self) -> usize;
     /// Actions in `[-1, 1]`, `[n, action_dim]`, for observations `[n, obs_dim]`.
     fn act(&mut self, obs: &[f32], mode: ActMode) -> Vec<f32>;
+    /// Restarts the noise stream of [`ActMode::Sample`] from `seed`, so that sampled
+    /// episodes are reproducible whatever the agent did before.
+    fn seed_sampling(&mut self, seed: u64);
     /// Records the step that followed the last `act(.., Explore)`.
     fn observe(&mut self, step: &Experience<'_>);
     /// Trains if the algorithm's schedule says so; `progress_remaining` goes from 1 (start

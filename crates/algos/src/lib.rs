@@ -25,7 +25,8 @@ pub use config::{ConfigError, NetConfig, OffPolicyConfig};
 pub use ppo::{Ppo, PpoConfig};
 pub use replay::{ReplayBatch, ReplayBuffer};
 pub use rollout::{
-    BatchPolicy, Collector, Episode, EpisodeLog, deterministic, play_deterministic, play_episode,
+    BatchPolicy, Collector, Episode, EpisodeLog, deterministic, play_episode, play_episodes,
+    sampled,
 };
 pub use sac::{Sac, SacAgent, SacConfig};
 pub use schedule::LrSchedule;

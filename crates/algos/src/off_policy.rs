@@ -7,7 +7,7 @@ use crate::config::OffPolicyConfig;
 use crate::replay::{ReplayBatch, ReplayBuffer};
 use crate::schedule::LrSchedule;
 use foosball_nets::{ObsShape, Snapshot, SnapshotError};
-use rand::Rng;
+use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::path::Path;
 
@@ -39,6 +39,7 @@ pub struct OffPolicy<L> {
     lr: LrSchedule,
     buffer: ReplayBuffer,
     rng: ChaCha8Rng,
+    sample_rng: ChaCha8Rng,
     env_steps: u64,
     steps_since_train: u64,
 }
@@ -62,6 +63,7 @@ impl<L: OffPolicyLearner> OffPolicy<L> {
             schedule,
             lr,
             buffer,
+            sample_rng: rng.clone(),
             rng,
             env_steps: 0,
             steps_since_train: 0,
@@ -89,7 +91,15 @@ impl<L: OffPolicyLearner> Agent for OffPolicy<L> {
             let n = obs.len() / self.obs_dim() * self.action_dim();
             return (0..n).map(|_| self.rng.random_range(-1.0..=1.0)).collect();
         }
-        self.learner.policy_act(obs, mode, &mut self.rng)
+        let rng = match mode {
+            ActMode::Sample => &mut self.sample_rng,
+            ActMode::Explore | ActMode::Deterministic => &mut self.rng,
+        };
+        self.learner.policy_act(obs, mode, rng)
+    }
+
+    fn seed_sampling(&mut self, seed: u64) {
+        self.sample_rng = ChaCha8Rng::seed_from_u64(seed);
     }
 
     fn observe(&mut self, step: &Experience<'_>) {

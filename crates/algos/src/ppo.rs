@@ -188,6 +188,7 @@ pub struct Ppo {
     model: ActorCritic,
     optim: Adam,
     rng: ChaCha8Rng,
+    sample_rng: ChaCha8Rng,
     rollout: RolloutBuffer,
     pending: Option<Pending>,
     episode_starts: Vec<f32>,
@@ -220,6 +221,7 @@ impl Ppo {
             model: ActorCritic { policy, value },
             optim: Adam::new(n.adam.clone()),
             rng,
+            sample_rng: ChaCha8Rng::seed_from_u64(seed),
             rollout: RolloutBuffer::default(),
             pending: None,
             episode_starts: Vec::new(),
@@ -350,16 +352,21 @@ impl Agent for Ppo {
         let policy = self.model.policy.valid();
         let obs_t = matrix(obs, self.obs_dim, &plain);
         let (mean_t, log_std) = policy.distribution(obs_t);
-        if mode == ActMode::Deterministic {
-            return host(mean_t.clamp(-1.0, 1.0));
-        }
         let n = obs.len() / self.obs_dim;
+        let rng = match mode {
+            ActMode::Deterministic => return host(mean_t.clamp(-1.0, 1.0)),
+            ActMode::Sample => &mut self.sample_rng,
+            ActMode::Explore => &mut self.rng,
+        };
         let noise = matrix(
-            &standard_normal(n, self.action_dim, &mut self.rng),
+            &standard_normal(n, self.action_dim, rng),
             self.action_dim,
             &plain,
         );
         let raw = mean_t.clone() + log_std.clone().exp() * noise;
+        if mode == ActMode::Sample {
+            return host(raw.clamp(-1.0, 1.0));
+        }
         let log_probs = host(diag_gaussian_log_prob(mean_t, log_std, raw.clone()));
         let actions = host(raw);
         let clipped = actions.iter().map(|x| x.clamp(-1.0, 1.0)).collect();
@@ -369,6 +376,10 @@ impl Agent for Ppo {
             log_probs,
         });
         clipped
+    }
+
+    fn seed_sampling(&mut self, seed: u64) {
+        self.sample_rng = ChaCha8Rng::seed_from_u64(seed);
     }
 
     fn observe(&mut self, step: &Experience<'_>) {

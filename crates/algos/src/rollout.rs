@@ -119,6 +119,13 @@ pub fn deterministic(agent: &mut dyn Agent) -> impl FnMut(&[f32]) -> Vec<f32> + 
     move |obs| agent.act(obs, ActMode::Deterministic)
 }
 
+/// An agent's sampled action ([`ActMode::Sample`]) as a [`BatchPolicy`], its noise drawn
+/// from `seed` on.
+pub fn sampled(agent: &mut dyn Agent, seed: u64) -> impl FnMut(&[f32]) -> Vec<f32> + '_ {
+    agent.seed_sampling(seed);
+    move |obs| agent.act(obs, ActMode::Sample)
+}
+
 /// What an episode of `E` leaves behind, folded from its steps.
 pub trait EpisodeLog<E: Env>: Send {
     /// Before each step: the env as the policy acts on it (e.g. to read its state).
@@ -149,7 +156,7 @@ struct Slot<L> {
 /// (`new_log(seed)` starts each) in seed order. An env takes the next seed as soon as
 /// its episode ends. The number of envs is part of an evaluation protocol: a batch of
 /// another size may round the networks' outputs differently in the last bit.
-pub fn play_deterministic<E: Env, L: EpisodeLog<E>>(
+pub fn play_episodes<E: Env, L: EpisodeLog<E>>(
     policy: &mut BatchPolicy<'_>,
     envs: &mut [E],
     seeds: &[u64],
@@ -227,7 +234,7 @@ pub fn play_episode<E: Env>(
     env: &mut E,
     seed: u64,
 ) -> Result<Episode, EnvError> {
-    let mut episodes = play_deterministic(
+    let mut episodes = play_episodes(
         &mut deterministic(agent),
         std::slice::from_mut(env),
         &[seed],

@@ -219,7 +219,7 @@ impl OffPolicyLearner for Sac {
         let obs = matrix(obs, self.obs_dim, &device);
         let actions = match mode {
             ActMode::Deterministic => actor.deterministic(obs),
-            ActMode::Explore => {
+            ActMode::Explore | ActMode::Sample => {
                 let n = obs.dims()[0];
                 let noise = matrix(
                     &standard_normal(n, self.action_dim, rng),

@@ -9,6 +9,7 @@
 //! | [`EVAL_ENVS`]  | evaluation episode `index` (held out from training) |
 //! | [`TEST_ENVS`]  | final-test episode `index` (held out from both) |
 //! | [`LEARNER`]    | the learner's own stream (`index` 0: network init, sampling, noise) |
+//! | [`ACTION_SAMPLING`] | sampled (stochastic) evaluation actions; `index` is the episodes' stream ([`EVAL_ENVS`] or [`TEST_ENVS`]) |
 
 /// Stream of the training environments.
 pub const TRAIN_ENVS: u64 = 1;
@@ -18,6 +19,8 @@ pub const EVAL_ENVS: u64 = 2;
 pub const TEST_ENVS: u64 = 3;
 /// Stream of the learning algorithm's components.
 pub const LEARNER: u64 = 4;
+/// Stream of the noise of stochastic evaluations and tests.
+pub const ACTION_SAMPLING: u64 = 5;
 
 /// One SplitMix64 output step.
 fn splitmix64(mut z: u64) -> u64 {
@@ -39,7 +42,7 @@ mod tests {
     #[test]
     fn streams_and_indices_give_distinct_seeds() {
         let mut seen = std::collections::HashSet::new();
-        for stream in [TRAIN_ENVS, EVAL_ENVS, TEST_ENVS, LEARNER] {
+        for stream in [TRAIN_ENVS, EVAL_ENVS, TEST_ENVS, LEARNER, ACTION_SAMPLING] {
             for index in 0..1000 {
                 assert!(seen.insert(derive_seed(7, stream, index)));
             }
