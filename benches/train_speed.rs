@@ -11,7 +11,7 @@
 //! figures: run on an idle machine.
 
 use foosball_rl::config::RunConfig;
-use foosball_rl::train::{Event, Start, train};
+use foosball_rl::run::train::{Event, Start, train};
 use std::path::Path;
 use std::time::Instant;
 

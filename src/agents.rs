@@ -1,12 +1,11 @@
 //! The learner a run configuration asks for, on the device of its backend.
 
 use crate::config::{AlgoConfig, RunConfig};
-use crate::train::TrainError;
 use foosball_algos::{Agent, Ppo, Sac, Td3};
 use foosball_env::layout;
 use foosball_env::seeding::{LEARNER, derive_seed};
 use foosball_env::{ObservationConfig, ObservationKind};
-use foosball_nets::{Backend, Device, ObsShape};
+use foosball_nets::{Backend, BackendError, Device, ObsShape};
 
 /// The agent `config` asks for, its networks drawn from the learner stream; its input is
 /// the observation `config.env` gives (38 state values, or an image through a CNN).
@@ -33,10 +32,10 @@ pub fn obs_shape(observation: &ObservationConfig) -> ObsShape {
 }
 
 /// The device of the configured backend (the default CPU backend when unset).
-pub fn device(config: &RunConfig) -> Result<Device, TrainError> {
+pub fn device(config: &RunConfig) -> Result<Device, BackendError> {
     let backend = match config.protocol.backend {
         Some(b) => b,
         None => Backend::default_cpu()?,
     };
-    Ok(backend.device()?)
+    backend.device()
 }

@@ -2,7 +2,6 @@
 //! environment and the algorithm's settings. Unknown keys and invalid values are refused
 //! with the file, the line and the dotted key.
 
-use crate::evaluation::TestActions;
 use foosball_algos::{NetConfig, OffPolicyConfig, PpoConfig, SacConfig, Td3Config};
 use foosball_env::{ConfigError, FoosballConfig, ObservationKind};
 use foosball_nets::Backend;
@@ -37,6 +36,29 @@ impl Algo {
 impl fmt::Display for Algo {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
+    }
+}
+
+/// How a trained agent acts in a test: the paper's text tests deterministically, its code
+/// (`model.predict(obs)`, SB3's default `deterministic=False`) samples.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum TestActions {
+    /// The policy's deterministic action (the text's test).
+    #[default]
+    Deterministic,
+    /// A draw from the policy's action distribution (the code's test); TD3's policy has
+    /// no distribution, so its draw is its deterministic action, as in SB3.
+    Stochastic,
+}
+
+impl TestActions {
+    /// Lower-case name, as in TOML.
+    pub fn name(self) -> &'static str {
+        match self {
+            TestActions::Deterministic => "deterministic",
+            TestActions::Stochastic => "stochastic",
+        }
     }
 }
 

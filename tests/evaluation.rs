@@ -6,10 +6,11 @@ use foosball_rl::algos::{
     ActMode, Agent, BatchPolicy, Ppo, PpoConfig, Sac, SacConfig, Td3, Td3Config, deterministic,
     play_episode, play_episodes,
 };
+use foosball_rl::config::TestActions;
 use foosball_rl::env::{FoosballConfig, FoosballEnv};
-use foosball_rl::evaluation::{PlayedEpisode, TestActions, play_agent};
-use foosball_rl::metrics::TestMetrics;
 use foosball_rl::nets::Backend;
+use foosball_rl::play::evaluation::{Episodes, PlayedEpisode, play_agent};
+use foosball_rl::play::metrics::TestMetrics;
 
 fn config() -> FoosballConfig {
     FoosballConfig {
@@ -110,6 +111,22 @@ fn actions(played: &[PlayedEpisode]) -> Vec<f32> {
         .collect()
 }
 
+/// Four recorded test-stream episodes of run seed 9 on the short table.
+fn test_episodes(config: &FoosballConfig) -> Episodes<'_> {
+    Episodes {
+        env: config,
+        seed: 9,
+        stream: 3,
+        n: 4,
+        record: true,
+    }
+}
+
+/// The episodes `agent` plays acting as `how`.
+fn sampled_or_not(agent: &mut dyn Agent, how: TestActions) -> Vec<PlayedEpisode> {
+    play_agent(agent, how, &test_episodes(&config())).unwrap()
+}
+
 #[test]
 fn a_stochastic_test_samples_and_repeats_from_its_seed_whatever_came_before() {
     let mut c = PpoConfig::default();
@@ -120,41 +137,29 @@ fn a_stochastic_test_samples_and_repeats_from_its_seed_whatever_came_before() {
         ("ppo", Box::new(Ppo::new(38, 8, c, 3, &device))),
     ];
     for (name, mut agent) in agents {
-        let mut run = |how| play_agent(agent.as_mut(), how, &config(), 9, 3, 4, true).unwrap();
-        let sampled = run(TestActions::Stochastic);
-        assert_eq!(run(TestActions::Stochastic), sampled, "{name}");
-        let fixed = run(TestActions::Deterministic);
+        let sampled = sampled_or_not(agent.as_mut(), TestActions::Stochastic);
+        assert_eq!(
+            sampled_or_not(agent.as_mut(), TestActions::Stochastic),
+            sampled,
+            "{name}"
+        );
+        let fixed = sampled_or_not(agent.as_mut(), TestActions::Deterministic);
         assert_ne!(
             actions(&sampled),
             actions(&fixed),
             "{name}: sampling moves actions"
         );
         assert!(actions(&sampled).iter().all(|a| (-1.0..=1.0).contains(a)));
+        // Exploring in between moves the agent's own stream, not the test's.
+        for _ in 0..3 {
+            agent.act(&[0.0; 38], ActMode::Explore);
+        }
+        assert_eq!(
+            sampled_or_not(agent.as_mut(), TestActions::Stochastic),
+            sampled,
+            "{name}"
+        );
     }
-    // Exploring in between moves the agent's own stream, not the test's.
-    let mut agent = agent();
-    let sampled = play_agent(
-        &mut agent,
-        TestActions::Stochastic,
-        &config(),
-        9,
-        3,
-        4,
-        true,
-    );
-    for _ in 0..3 {
-        agent.act(&[0.0; 38], ActMode::Explore);
-    }
-    let again = play_agent(
-        &mut agent,
-        TestActions::Stochastic,
-        &config(),
-        9,
-        3,
-        4,
-        true,
-    );
-    assert_eq!(again.unwrap(), sampled.unwrap());
 }
 
 #[test]
@@ -163,10 +168,8 @@ fn td3_samples_its_deterministic_action_as_sb3_predict_does() {
     c.net.hidden = vec![32];
     let device = Backend::default_cpu().unwrap().device().unwrap();
     let mut agent = Td3::agent(38, 8, c, 3, &device);
-    let run =
-        |agent: &mut dyn Agent, how| play_agent(agent, how, &config(), 9, 3, 3, true).unwrap();
     assert_eq!(
-        run(&mut agent, TestActions::Stochastic),
-        run(&mut agent, TestActions::Deterministic)
+        sampled_or_not(&mut agent, TestActions::Stochastic),
+        sampled_or_not(&mut agent, TestActions::Deterministic)
     );
 }

@@ -150,7 +150,8 @@ fn a_tiny_run_trains_on_pixels_and_records_states() {
     assert_eq!(saved.env.observation.dim(), 2 * 12 * 20);
     // The test's trajectories hold the table's 38-dim states, not the pixels.
     let episodes =
-        foosball_rl::run_dir::read_trajectories(&run.join("test/trajectories.bin")).unwrap();
+        foosball_rl::play::trajectories::read_trajectories(&run.join("test/trajectories.bin"))
+            .unwrap();
     assert_eq!(episodes.len(), 3);
     for e in &episodes {
         assert_eq!(e.trajectory.obs.len(), 38 * e.trajectory.rewards.len());

@@ -18,7 +18,7 @@ mod common;
 
 use foosball_rl::config::{Algo, Overrides, RunConfig};
 use foosball_rl::env::{FoosballConfig, Preset};
-use foosball_rl::train::{Start, train};
+use foosball_rl::run::train::{Start, train};
 use std::path::Path;
 
 #[test]

@@ -4,7 +4,7 @@
 //! scripted shooter scores where the ball starts in reach.
 
 use foosball_rl::env::{EndReason, Env, FoosballConfig, FoosballEnv, Preset};
-use foosball_rl::policy::ScriptedPolicy;
+use foosball_rl::play::scripted::ScriptedPolicy;
 
 mod common;
 

@@ -7,13 +7,11 @@ mod common;
 
 use common::scratch;
 use foosball_rl::env::layout::{ACTION_DIM, OBS_DIM};
-use foosball_rl::evaluation::{PlayedEpisode, Trajectory};
-use foosball_rl::metrics::EpisodeSummary;
-use foosball_rl::run_dir::{read_trajectories, trajectories_bytes};
+use foosball_rl::play::trajectories::{Trajectory, read_trajectories, trajectories_bytes};
 use std::process::Command;
 
 /// Two recorded episodes of 3 and 7 steps, the second with the higher return.
-fn episodes() -> Vec<PlayedEpisode> {
+fn episodes() -> Vec<(u64, Trajectory)> {
     (0..2u64)
         .map(|k| {
             let steps = if k == 0 { 3 } else { 7 };
@@ -21,15 +19,12 @@ fn episodes() -> Vec<PlayedEpisode> {
             for (t, row) in obs.chunks_exact_mut(OBS_DIM).enumerate() {
                 row[..3].copy_from_slice(&[t as f32, 10.0 * k as f32, 1.73355]);
             }
-            PlayedEpisode {
-                seed: 40 + k,
-                summary: EpisodeSummary::default(),
-                trajectory: Some(Trajectory {
-                    obs,
-                    actions: vec![0.5; steps * ACTION_DIM],
-                    rewards: vec![100.0 * (k + 1) as f32; steps],
-                }),
-            }
+            let trajectory = Trajectory {
+                obs,
+                actions: vec![0.5; steps * ACTION_DIM],
+                rewards: vec![100.0 * (k + 1) as f32; steps],
+            };
+            (40 + k, trajectory)
         })
         .collect()
 }
@@ -46,12 +41,13 @@ fn recorded_episodes_read_back_and_become_gifs() {
     let dir = scratch("render");
     let path = dir.join("trajectories.bin");
     let played = episodes();
-    std::fs::write(&path, trajectories_bytes(&played, OBS_DIM, ACTION_DIM)).unwrap();
+    let refs: Vec<(u64, &Trajectory)> = played.iter().map(|(s, t)| (*s, t)).collect();
+    std::fs::write(&path, trajectories_bytes(&refs, OBS_DIM, ACTION_DIM)).unwrap();
     let back = read_trajectories(&path).unwrap();
     assert_eq!(back.len(), 2);
-    for (b, p) in back.iter().zip(&played) {
-        assert_eq!(b.seed, p.seed);
-        assert_eq!(Some(&b.trajectory), p.trajectory.as_ref());
+    for (b, (seed, trajectory)) in back.iter().zip(&played) {
+        assert_eq!(b.seed, *seed);
+        assert_eq!(&b.trajectory, trajectory);
     }
     let out = dir.join("gifs");
     let o = render(&[

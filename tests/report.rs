@@ -5,7 +5,7 @@ mod common;
 
 use common::{scratch, tiny_config_text};
 use foosball_rl::config::RunConfig;
-use foosball_rl::train::{Start, train};
+use foosball_rl::run::train::{Start, train};
 use std::path::Path;
 use std::process::Command;
 

@@ -7,7 +7,7 @@ mod common;
 use common::{scratch, tiny_config_text};
 use foosball_rl::config::RunConfig;
 use foosball_rl::nets::Snapshot;
-use foosball_rl::train::{Event, Start, train};
+use foosball_rl::run::train::{Event, Start, train};
 use std::path::Path;
 use std::process::Command;
 

@@ -3,8 +3,8 @@
 
 use clap::Parser;
 use foosball_rl::cli::finish;
-use foosball_rl::evaluation::TestActions;
-use foosball_rl::player::{Player, PlayerArgs};
+use foosball_rl::config::TestActions;
+use foosball_rl::play::player::{Player, PlayerArgs};
 use std::path::PathBuf;
 use std::process::ExitCode;
 

@@ -4,13 +4,13 @@
 //! played live by a run's saved networks or a scripted policy.
 
 use clap::Parser;
-use foosball_rl::animation::{Animation, Container, ffmpeg_available};
 use foosball_rl::cli::finish;
 use foosball_rl::config::RunConfig;
 use foosball_rl::env::geometry::GOAL_LINE_Y;
 use foosball_rl::env::render::Renderer;
-use foosball_rl::player::{Player, PlayerArgs};
-use foosball_rl::run_dir::{RecordedEpisode, by_return, read_trajectories};
+use foosball_rl::play::animation::{Animation, Container, ffmpeg_available};
+use foosball_rl::play::player::{Player, PlayerArgs};
+use foosball_rl::play::trajectories::{RecordedEpisode, by_return, read_trajectories};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 

@@ -3,10 +3,10 @@
 //! `train --resume RUN` goes on from a run's last checkpoint.
 
 use clap::Parser;
-use foosball_rl::budget;
 use foosball_rl::cli::finish;
 use foosball_rl::config::{Algo, Overrides, RunConfig};
-use foosball_rl::train::{Event, Progress, Start, train};
+use foosball_rl::run::budget;
+use foosball_rl::run::train::{Event, Progress, Start, train};
 use indicatif::{FormattedDuration, ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;

@@ -1,9 +1,9 @@
 //! The report's PNG charts: a bar per group for each test metric (mean over seeds, 95 %
 //! interval, a dot per seed), and learning curves (mean over seeds with a 95 % band).
 
+use super::stats::{self, mean};
 use super::{EvalPoint, Group, ReportError, error};
-use crate::metrics::Estimate;
-use crate::stats::{self, mean};
+use crate::play::metrics::Estimate;
 use plotters::prelude::*;
 use std::path::Path;
 

@@ -14,11 +14,11 @@
 //! has a single run (no interval over seeds).
 
 use super::Group;
-use crate::metrics::Estimate;
-use crate::stats::{self, mean};
+use super::stats::{self, mean};
+use crate::play::metrics::Estimate;
 use serde::Serialize;
 
-/// Index of each metric in [`crate::metrics::TestMetrics::rows`].
+/// Index of each metric in [`crate::play::metrics::TestMetrics::rows`].
 const SCORE_RATE: usize = 0;
 const BALL_SPEED: usize = 2;
 const FINAL_DISTANCE: usize = 4;

@@ -1,6 +1,6 @@
 //! Comparing runs, like the paper's Figure 2: runs grouped by algorithm, table preset and
 //! network; for each of the test metrics the mean and the interquartile mean over seeds
-//! with 95 % bootstrap intervals ([`crate::stats`]), per-seed values, scripted baselines
+//! with 95 % bootstrap intervals ([`stats`]), per-seed values, scripted baselines
 //! beside them, the paper's figures and a verdict per claim of the paper ([`claims`]);
 //! PNG charts ([`charts`]) and JSON.
 //!
@@ -8,15 +8,16 @@
 
 pub mod charts;
 pub mod claims;
+pub mod stats;
 
 use crate::config::{ConfigFileError, RunConfig};
-use crate::metrics::{Estimate, TestMetrics};
-use crate::policy::Baseline;
-use crate::run_dir::write_atomic;
-use crate::run_log::EvaluationRow;
-use crate::stats::{self, iqm, mean};
+use crate::files::write_atomic;
+use crate::play::metrics::{Estimate, TestMetrics};
+use crate::play::scripted::Baseline;
+use crate::run::log::EvaluationRow;
 use foosball_env::FoosballConfig;
 use serde::Serialize;
+use stats::{iqm, mean};
 use std::path::{Path, PathBuf};
 
 /// A run directory that cannot be reported on, or a report file that could not be
@@ -331,12 +332,13 @@ fn episode_gifs(groups: &[Group], out: &Path) -> Result<String, ReportError> {
         if !path.is_file() {
             continue;
         }
-        let episodes = crate::run_dir::read_trajectories(&path).map_err(|e| error(&path, e))?;
-        let order = crate::run_dir::by_return(&episodes);
+        let episodes =
+            crate::play::trajectories::read_trajectories(&path).map_err(|e| error(&path, e))?;
+        let order = crate::play::trajectories::by_return(&episodes);
         let (Some(&best), Some(&worst)) = (order.first(), order.last()) else {
             continue;
         };
-        let animation = crate::animation::Animation {
+        let animation = crate::play::animation::Animation {
             renderer: foosball_env::render::Renderer::new(2.0),
             every: 10,
             delay_cs: 4,

@@ -41,35 +41,10 @@
 
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
+pub use crate::config_error::ConfigError;
 use crate::geometry::{self, BALL_MASS, GOAL_LINE_Y, REFERENCE_BALL_DECELERATION};
 use crate::layout::{ACTION_DIM, action_slide};
 use crate::observation::ObservationConfig;
-
-/// A setting with a value it must not take.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("invalid value for `{key}`: {message}")]
-pub struct ConfigError {
-    /// Dotted path of the setting, e.g. `rules.stagnant_steps`.
-    pub key: String,
-    /// What is wrong with its value.
-    pub message: String,
-}
-
-impl ConfigError {
-    /// An error for the dotted `key`.
-    pub fn new(key: impl Into<String>, message: impl Into<String>) -> Self {
-        Self {
-            key: key.into(),
-            message: message.into(),
-        }
-    }
-
-    /// The same error with `prefix.` put before its key (for a section nested in a
-    /// larger configuration).
-    pub fn under(self, prefix: &str) -> Self {
-        Self::new(format!("{prefix}.{}", self.key), self.message)
-    }
-}
 
 /// A named bundle of rules (see the module docs for its values).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]

@@ -9,6 +9,7 @@
 //! - [`render`]: top-down RGB frames of a table state (Gymnasium's `rgb_array`);
 //!   [`observation`]: the state or stacked frames of it as what the agent sees.
 //! - [`scripted`]: hand-written shooter and dribbler, the yardsticks for learners.
+//! - [`config`]: the table's settings and presets, refused by key ([`config_error`]).
 //! - [`geometry`] and [`layout`]: the table's numbers and the observation/action index
 //!   table; [`seeding`]: how every random stream derives from one run seed.
 //!
@@ -16,6 +17,7 @@
 
 pub mod block;
 pub mod config;
+pub mod config_error;
 pub mod env;
 pub mod foosball;
 pub mod geometry;

@@ -10,7 +10,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::ConfigError;
+use crate::config_error::ConfigError;
 use crate::layout::OBS_DIM;
 use crate::render::{Frame, Renderer};
 

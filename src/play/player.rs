@@ -1,11 +1,11 @@
 //! Who plays test episodes for `evaluate` and `render`: a run's saved networks or a
 //! scripted policy on a table, chosen by the same command-line options in both.
 
+use super::evaluation::{Episodes, PlayedEpisode, play_agent, write_test};
+use super::metrics::TestMetrics;
+use super::scripted::{Baseline, ScriptedPolicy};
 use crate::agents::{build_agent, device};
-use crate::config::RunConfig;
-use crate::evaluation::{PlayedEpisode, TestActions, play_agent, write_test};
-use crate::metrics::TestMetrics;
-use crate::policy::{Baseline, ScriptedPolicy};
+use crate::config::{RunConfig, TestActions};
 use foosball_env::seeding::TEST_ENVS;
 use foosball_env::{FoosballConfig, Preset};
 use std::path::{Path, PathBuf};
@@ -175,16 +175,14 @@ impl Player {
                 agent
                     .load(&dir.join(checkpoint.name()))
                     .map_err(|e| e.to_string())?;
-                play_agent(
-                    agent.as_mut(),
-                    *actions,
-                    &config.env,
-                    config.protocol.seed,
-                    TEST_ENVS,
-                    episodes,
+                let episodes = Episodes {
+                    env: &config.env,
+                    seed: config.protocol.seed,
+                    stream: TEST_ENVS,
+                    n: episodes,
                     record,
-                )
-                .map_err(|e| e.to_string())
+                };
+                play_agent(agent.as_mut(), *actions, &episodes).map_err(|e| e.to_string())
             }
             Player::Scripted(b) => b.play(episodes, record).map_err(|e| e.to_string()),
         }

@@ -1,10 +1,9 @@
 //! Scripted policies for yellow, played through the same evaluation as trained agents:
 //! the yardsticks of the report (`evaluate --policy shooter|dribbler|zero|random`).
 
-use crate::evaluation::{BatchPolicy, PlayedEpisode, play, write_test};
-use crate::metrics::TestMetrics;
-use crate::run_dir::{RunFileError, write_atomic};
-use crate::train::TrainError;
+use super::evaluation::{BatchPolicy, Episodes, PlayError, PlayedEpisode, play, write_test};
+use super::metrics::TestMetrics;
+use crate::files::{RunFileError, write_atomic};
 use foosball_env::foosball::from_ball_frame;
 use foosball_env::layout::OBS_DIM;
 use foosball_env::opponent::{RandomOpponent, StaticOpponent};
@@ -82,29 +81,29 @@ pub struct Baseline {
 impl Baseline {
     /// Plays `episodes` test episodes (trajectories recorded when `record`) and writes
     /// `metrics.json`, `metrics.md`, `trajectories.bin` and `baseline.toml` into `dir`.
-    pub fn test(&self, episodes: u32, dir: &Path, record: bool) -> Result<TestMetrics, TrainError> {
+    pub fn test(&self, episodes: u32, dir: &Path, record: bool) -> Result<TestMetrics, PlayError> {
         let metrics = write_test(dir, &self.play(episodes, record)?)?;
         self.write(dir)?;
         Ok(metrics)
     }
 
     /// Plays `episodes` test episodes (steps kept when `record`), in seed order.
-    pub fn play(&self, episodes: u32, record: bool) -> Result<Vec<PlayedEpisode>, TrainError> {
+    pub fn play(&self, episodes: u32, record: bool) -> Result<Vec<PlayedEpisode>, PlayError> {
         if self.env.observation.kind != ObservationKind::State {
-            return Err(TrainError::Env(format!(
+            return Err(PlayError::Env(format!(
                 "env.observation.kind: {} reads the 38-dim state; set it to \"state\"",
                 self.policy.name()
             )));
         }
         let mut act = self.policy.batch_policy(self.seed, &self.env);
-        play(
-            act.as_mut(),
-            &self.env,
-            self.seed,
-            TEST_ENVS,
-            episodes,
+        let episodes = Episodes {
+            env: &self.env,
+            seed: self.seed,
+            stream: TEST_ENVS,
+            n: episodes,
             record,
-        )
+        };
+        play(act.as_mut(), &episodes)
     }
 
     /// Writes `dir/baseline.toml`.

@@ -2,13 +2,14 @@
 //! schedule counted in env steps, best and last networks, checkpoints at epoch ends
 //! (resumable), then the test phase.
 
+use super::checkpoint::{self, CheckpointError, LoopState};
+use super::log::{CSV_FILES, RunLog, Speed};
 use crate::agents::{build_agent, device};
-use crate::checkpoint::{self, CheckpointError, LoopState};
 use crate::config::RunConfig;
-use crate::evaluation::{TestActions, foosball_envs, play_agent, write_test};
-use crate::metrics::TestMetrics;
-use crate::run_dir::{RunFileError, write_atomic};
-use crate::run_log::{CSV_FILES, RunLog, Speed};
+use crate::config::TestActions;
+use crate::files::{RunFileError, write_atomic};
+use crate::play::evaluation::{Episodes, PlayError, foosball_envs, play_agent, write_test};
+use crate::play::metrics::TestMetrics;
 use foosball_algos::{Agent, AgentError, Collector};
 use foosball_env::seeding::{EVAL_ENVS, TEST_ENVS, TRAIN_ENVS, derive_seed};
 use foosball_env::{EnvError, FoosballInfo, VecEnv, VecEnvError};
@@ -43,6 +44,9 @@ pub enum TrainError {
     /// A checkpoint could not be written or read.
     #[error(transparent)]
     Checkpoint(#[from] CheckpointError),
+    /// Evaluation or test episodes could not be played or written.
+    #[error(transparent)]
+    Play(#[from] PlayError),
     /// `--resume` on a directory without a checkpoint.
     #[error("{0}: no checkpoint to resume from (none is written before the first epoch ends)")]
     NoCheckpoint(PathBuf),
@@ -239,15 +243,14 @@ pub fn train(
                 }
                 if steps >= next_eval {
                     next_eval += p.eval_every;
-                    let played = play_agent(
-                        agent.as_mut(),
-                        TestActions::Deterministic,
-                        &config.env,
-                        config.protocol.seed,
-                        EVAL_ENVS,
-                        p.eval_episodes,
-                        false,
-                    )?;
+                    let episodes = Episodes {
+                        env: &config.env,
+                        seed: p.seed,
+                        stream: EVAL_ENVS,
+                        n: p.eval_episodes,
+                        record: false,
+                    };
+                    let played = play_agent(agent.as_mut(), TestActions::Deterministic, &episodes)?;
                     let m = TestMetrics::from_episodes(
                         &played.iter().map(|e| e.summary).collect::<Vec<_>>(),
                     );
@@ -279,16 +282,15 @@ pub fn train(
             report(&progress(steps, Event::Checkpoint(epoch)));
         }
         report(&progress(agent.env_steps(), Event::Test));
-        let played = play_agent(
-            agent.as_mut(),
-            p.test_actions,
-            &config.env,
-            config.protocol.seed,
-            TEST_ENVS,
-            p.test_episodes,
-            true,
-        )?;
-        write_test(&run_dir.join("test"), &played)
+        let episodes = Episodes {
+            env: &config.env,
+            seed: p.seed,
+            stream: TEST_ENVS,
+            n: p.test_episodes,
+            record: true,
+        };
+        let played = play_agent(agent.as_mut(), p.test_actions, &episodes)?;
+        Ok(write_test(&run_dir.join("test"), &played)?)
     })
 }
 

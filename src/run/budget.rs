@@ -3,9 +3,9 @@
 //! instead of an allocator abort), and its wall time, from a few env steps and gradient
 //! steps timed on a throwaway copy of the learner (a few seconds at most).
 
+use super::train::TrainError;
 use crate::agents::{build_agent, device};
 use crate::config::{Algo, AlgoConfig, RunConfig};
-use crate::train::TrainError;
 use foosball_algos::plane_store::PlaneStore;
 use foosball_algos::{ActMode, Experience, SacConfig, Td3Config};
 use foosball_env::layout::ACTION_DIM;

@@ -1,97 +1,36 @@
-//! The files of a run directory, written atomically ([`foosball_nets::atomic_file`]) but
-//! for the append-only CSV logs, which a resume cuts back to its checkpoint.
-//!
-//! ```text
-//! RUN/config.toml          effective configuration
-//! RUN/episodes.csv         env_step,return,length,scored,end  (training episodes)
-//! RUN/evaluations.csv      env_step and the mean metrics ([`crate::run_log::EvaluationRow`])
-//! RUN/scalars.csv          env_step,tag,value                 (every TensorBoard scalar)
-//! RUN/tensorboard/         TensorBoard event files
-//! RUN/last/, RUN/best/     networks (Burn records) after the last epoch / best evaluation
-//! RUN/test/metrics.json    the paper's five metrics with 95 % intervals
-//! RUN/test/metrics.md      the same as a markdown table
-//! RUN/test/trajectories.bin  every test episode's steps (format below)
-//! ```
-//!
-//! `trajectories.bin`, little-endian: magic `FSBT`, `u32` version 1, `u32` obs_dim,
-//! `u32` action_dim, `u64` episodes; then per episode `u64` seed, `u32` steps T,
-//! `f32` observations `[T, obs_dim]`, `f32` actions `[T, action_dim]`, `f32` rewards `[T]`.
+//! Recorded episodes and their file, `trajectories.bin`: little-endian, magic `FSBT`,
+//! `u32` version 1, `u32` obs_dim, `u32` action_dim, `u64` episodes; then per episode
+//! `u64` seed, `u32` steps T, `f32` observations `[T, obs_dim]`, `f32` actions
+//! `[T, action_dim]`, `f32` rewards `[T]`.
 
-use crate::evaluation::PlayedEpisode;
-use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-/// A file of the run that could not be written or read.
-#[derive(Debug, thiserror::Error)]
-#[error("{path}: {source}")]
-pub struct RunFileError {
-    /// The file.
-    pub path: PathBuf,
-    /// Why.
-    pub source: std::io::Error,
+/// One episode's steps: the table's states acted on `[T, 38]` (noise-free, whatever the
+/// agent observes), actions `[T, action_dim]`, rewards `[T]`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Trajectory {
+    /// States, row-major (foosball's 38-dim layout).
+    pub obs: Vec<f32>,
+    /// Actions, row-major, in `[-1, 1]`.
+    pub actions: Vec<f32>,
+    /// Rewards.
+    pub rewards: Vec<f32>,
 }
 
-impl RunFileError {
-    /// The error constructor for `path`, for `map_err`.
-    pub fn at(path: &Path) -> impl Fn(std::io::Error) -> Self + Copy + '_ {
-        move |source| Self {
-            path: path.to_path_buf(),
-            source,
-        }
-    }
-}
-
-/// Writes `bytes` to `path` atomically (creating its directory), so a crash leaves either
-/// the old file or the new one ([`foosball_nets::atomic_file`]).
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), RunFileError> {
-    if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir).map_err(RunFileError::at(path))?;
-    }
-    foosball_nets::atomic_file::write_atomic(path, bytes).map_err(RunFileError::at(path))
-}
-
-/// Appends lines to a CSV file, writing the header first when the file is new or empty;
-/// no lines, no I/O.
-pub fn append_csv(path: &Path, header: &str, lines: &[String]) -> Result<(), RunFileError> {
-    if lines.is_empty() {
-        return Ok(());
-    }
-    let err = RunFileError::at(path);
-    let new = std::fs::metadata(path).map_or(true, |m| m.len() == 0);
-    let mut file = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(path)
-        .map_err(err)?;
-    let mut text = String::new();
-    if new {
-        text.push_str(header);
-        text.push('\n');
-    }
-    for line in lines {
-        text.push_str(line);
-        text.push('\n');
-    }
-    file.write_all(text.as_bytes()).map_err(err)
-}
-
-/// The `trajectories.bin` bytes of `episodes` (recorded ones only).
+/// The `trajectories.bin` bytes of `episodes`, each its reset seed and its steps.
 pub fn trajectories_bytes(
-    episodes: &[PlayedEpisode],
+    episodes: &[(u64, &Trajectory)],
     obs_dim: usize,
     action_dim: usize,
 ) -> Vec<u8> {
-    let recorded: Vec<&PlayedEpisode> =
-        episodes.iter().filter(|e| e.trajectory.is_some()).collect();
     let mut out = Vec::new();
     out.extend_from_slice(b"FSBT");
     out.extend_from_slice(&1u32.to_le_bytes());
     out.extend_from_slice(&(obs_dim as u32).to_le_bytes());
     out.extend_from_slice(&(action_dim as u32).to_le_bytes());
-    out.extend_from_slice(&(recorded.len() as u64).to_le_bytes());
-    for e in recorded {
-        let t = e.trajectory.as_ref().expect("filtered");
-        out.extend_from_slice(&e.seed.to_le_bytes());
+    out.extend_from_slice(&(episodes.len() as u64).to_le_bytes());
+    for (seed, t) in episodes {
+        out.extend_from_slice(&seed.to_le_bytes());
         out.extend_from_slice(&(t.rewards.len() as u32).to_le_bytes());
         for x in t.obs.iter().chain(&t.actions).chain(&t.rewards) {
             out.extend_from_slice(&x.to_le_bytes());
@@ -106,7 +45,7 @@ pub struct RecordedEpisode {
     /// The seed it was reset with.
     pub seed: u64,
     /// Its steps.
-    pub trajectory: crate::evaluation::Trajectory,
+    pub trajectory: Trajectory,
 }
 
 impl RecordedEpisode {
@@ -161,7 +100,7 @@ pub fn read_trajectories(path: &Path) -> Result<Vec<RecordedEpisode>, String> {
             let steps = cursor.u32()? as usize;
             Ok(RecordedEpisode {
                 seed,
-                trajectory: crate::evaluation::Trajectory {
+                trajectory: Trajectory {
                     obs: cursor.f32s(steps * obs_dim)?,
                     actions: cursor.f32s(steps * action_dim)?,
                     rewards: cursor.f32s(steps)?,

@@ -8,12 +8,12 @@
 //! refused unless forced. A killed sweep loses at most the unfinished epochs of the runs
 //! then running.
 
-use crate::checkpoint;
 use crate::config::{Algo, RunConfig, migrate_legacy_keys};
-use crate::metrics::TestMetrics;
-use crate::policy::{Baseline, ScriptedPolicy};
-use crate::run_dir::write_atomic;
-use crate::train::{Progress, Start, TrainError, train};
+use crate::files::write_atomic;
+use crate::play::metrics::TestMetrics;
+use crate::play::scripted::{Baseline, ScriptedPolicy};
+use crate::run::checkpoint;
+use crate::run::train::{Progress, Start, TrainError, train};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -168,7 +168,7 @@ pub fn train_run(
     let Some(start) = run.start else {
         return Ok(None);
     };
-    std::fs::create_dir_all(&run.dir).map_err(crate::run_dir::RunFileError::at(&run.dir))?;
+    std::fs::create_dir_all(&run.dir).map_err(crate::files::RunFileError::at(&run.dir))?;
     train(&run.config, &run.dir, start, report).map(Some)
 }
 

@@ -3,7 +3,7 @@
 //! goal), written as a looping GIF, an H.264 MP4 through ffmpeg, or a PNG still of the
 //! last step.
 
-use crate::evaluation::Trajectory;
+use super::trajectories::Trajectory;
 use foosball_env::layout::{BALL_POS, OBS_DIM};
 use foosball_env::render::{Frame, Renderer};
 use foosball_nets::atomic_file::replace_file;

@@ -6,9 +6,9 @@
 //! the loop's own state). It is built in `RUN/checkpoint.tmp/` and renamed into place;
 //! the previous checkpoint is moved to `RUN/checkpoint.old/` first and removed last, so a
 //! crash at any moment leaves one complete checkpoint. The training envs restart at each
-//! checkpoint (see [`crate::train`]), so no physics state needs saving.
+//! checkpoint (see [`crate::run::train`]), so no physics state needs saving.
 
-use crate::run_dir::RunFileError;
+use crate::files::RunFileError;
 use foosball_algos::{Agent, AgentError};
 use foosball_nets::{Snapshot, SnapshotError};
 use std::path::{Path, PathBuf};
@@ -27,7 +27,7 @@ pub struct LoopState {
     pub next_log: u64,
     /// Best evaluation mean return so far (`-inf` before the first).
     pub best: f64,
-    /// Bytes of each append-only log file (in [`crate::run_log::CSV_FILES`] order) at the
+    /// Bytes of each append-only log file (in [`crate::run::log::CSV_FILES`] order) at the
     /// checkpoint; a resumed run cuts them back to these lengths.
     pub log_bytes: Vec<u64>,
 }

@@ -1,7 +1,7 @@
 //! The training logs of a run: CSV files, and TensorBoard event files holding the same
 //! scalars.
 //!
-//! Every [`crate::train::LOG_EVERY`] env steps (and at each epoch end) one window of
+//! Every [`crate::run::train::LOG_EVERY`] env steps (and at each epoch end) one window of
 //! training is summarised under these tags, in `scalars.csv` (`env_step,tag,value`) and
 //! in `RUN/tensorboard/`:
 //!
@@ -16,8 +16,8 @@
 //! `eval/end_<reason>` there and a
 //! row to `evaluations.csv`; each training episode is a row of `episodes.csv`.
 
-use crate::metrics::{TestMetrics, end_shares};
-use crate::run_dir::{RunFileError, append_csv};
+use crate::files::{RunFileError, append_csv};
+use crate::play::metrics::{TestMetrics, end_shares};
 use foosball_algos::{Episode, Metrics};
 use foosball_env::{EndReason, FoosballInfo};
 use std::collections::BTreeMap;
@@ -150,7 +150,7 @@ struct TrainingEpisode {
     end: Option<EndReason>,
 }
 
-/// End-reason shares ([`crate::metrics::end_shares`]) as scalars `<prefix>/end_<reason>`
+/// End-reason shares ([`crate::play::metrics::end_shares`]) as scalars `<prefix>/end_<reason>`
 /// (every reason, zeros included, so the tags are the same in every window).
 fn end_rows<'a>(
     prefix: &'a str,

@@ -3,7 +3,7 @@
 //! interval from resampling seeds with replacement. rliable's bootstrap is stratified by
 //! task; a group here is one task (one table preset), so its only stratum is its seeds.
 
-use crate::metrics::Estimate;
+use crate::play::metrics::Estimate;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

@@ -1,0 +1,21 @@
+//! Playing episodes: who plays (a run's networks or a scripted policy), the episodes they
+//! play on held-out seeds, the paper's test metrics over them, the recorded
+//! trajectories and their animations.
+//!
+//! Imports run one way: `play` reads [`crate::config`], [`crate::agents`] and
+//! [`crate::files`], and nothing of [`crate::run`], [`crate::sweep`] or [`crate::report`].
+//!
+//! - [`metrics`]: the paper's test metrics with confidence intervals;
+//! - [`trajectories`]: recorded episodes and `trajectories.bin`;
+//! - [`evaluation`]: a policy's episodes on held-out seeds, played side by side, and the
+//!   test files;
+//! - [`scripted`]: scripted yellow policies (shooter, dribbler, zero, random);
+//! - [`player`]: who plays test episodes for `evaluate` and `render`;
+//! - [`animation`]: episodes as captioned animations (GIF, or MP4 through ffmpeg).
+
+pub mod animation;
+pub mod evaluation;
+pub mod metrics;
+pub mod player;
+pub mod scripted;
+pub mod trajectories;

@@ -1,0 +1,32 @@
+//! One training run and its directory: the loop shared by PPO, SAC and TD3, its
+//! checkpoints, its logs and what it will cost.
+//!
+//! Imports run one way: `run` plays its evaluations and test through [`crate::play`] and
+//! reads [`crate::config`], [`crate::agents`] and [`crate::files`]; [`crate::sweep`] and
+//! [`crate::report`] sit above it.
+//!
+//! A run directory, every file but the append-only CSV logs written atomically
+//! ([`crate::files`]); a resume cuts the logs back to its checkpoint:
+//!
+//! ```text
+//! RUN/config.toml          effective configuration
+//! RUN/episodes.csv         env_step,return,length,scored,end  (training episodes)
+//! RUN/evaluations.csv      env_step and the mean metrics ([`log::EvaluationRow`])
+//! RUN/scalars.csv          env_step,tag,value                 (every TensorBoard scalar)
+//! RUN/tensorboard/         TensorBoard event files
+//! RUN/last/, RUN/best/     networks (Burn records) after the last epoch / best evaluation
+//! RUN/checkpoint/          the resumable state of the last epoch end ([`checkpoint`])
+//! RUN/test/metrics.json    the paper's five metrics with 95 % intervals
+//! RUN/test/metrics.md      the same as a markdown table
+//! RUN/test/trajectories.bin  every test episode's steps ([`crate::play::trajectories`])
+//! ```
+//!
+//! - [`train`]: the training loop, its events and its error;
+//! - [`checkpoint`]: resumable checkpoints at epoch ends;
+//! - [`log`]: training logs (CSV and TensorBoard);
+//! - [`budget`]: memory and time a run will need, told before it starts.
+
+pub mod budget;
+pub mod checkpoint;
+pub mod log;
+pub mod train;
