@@ -1,10 +1,14 @@
-//! The report's PNG charts: a bar per group for each test metric (mean over seeds, 95 %
-//! interval, a dot per seed), and learning curves (mean over seeds with a 95 % band).
+//! The report's PNG charts, each readable alone: a bar per group for each test metric
+//! (mean over seeds, 95 % interval, a dot per seed, the unit on the axis, the paper's
+//! figure as a dashed line, a legend naming every group), and learning curves (mean over
+//! seeds with a 95 % band, env steps on the x axis).
 
+use super::claims::{PAPER_FINAL_DISTANCE, PAPER_OTHERS_SCORE_RATE_BELOW, PAPER_SAC_SCORE_RATE};
 use super::stats::{self, mean};
 use super::{EvalPoint, Group, ReportError, error};
 use crate::play::metrics::Estimate;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::path::Path;
 
 /// An axis label with as many decimals as an axis spanning `span` needs.
@@ -46,27 +50,91 @@ fn png(
     .map_err(|e| error(path, e))
 }
 
-/// Writes a PNG bar chart of the five paper metrics (one panel each; a bar per group with
-/// its 95 % interval and a dot per seed) to `path`.
+/// A reference line drawn across a panel: the paper's figure and its label.
+type PaperLine = (f64, String);
+
+/// The paper's figures for metric `k` of [`crate::play::metrics::TestMetrics::rows`]
+/// (score rate, final distance), as lines to draw.
+fn paper_lines(k: usize) -> Vec<PaperLine> {
+    match k {
+        0 => vec![
+            (PAPER_SAC_SCORE_RATE, "paper SAC 42.9 %".into()),
+            (
+                PAPER_OTHERS_SCORE_RATE_BELOW,
+                "paper PPO, TD3 below 21.5 %".into(),
+            ),
+        ],
+        4 => PAPER_FINAL_DISTANCE
+            .iter()
+            .map(|(algo, v)| (*v, format!("paper {} {v} cm", algo.to_uppercase())))
+            .collect(),
+        _ => Vec::new(),
+    }
+}
+
+/// The y-axis description of a metric named like `mean ball speed (cm/s)`: its unit.
+fn unit(metric: &str) -> &str {
+    match metric.split_once('(') {
+        Some((_, rest)) => rest.trim_end_matches(')'),
+        None if metric == "score rate" => "share of episodes that scored",
+        None => "reward summed over an episode",
+    }
+}
+
+/// Height in pixels of the legend strip under the metric panels.
+const LEGEND_HEIGHT: u32 = 40;
+
+/// Writes a PNG bar chart of the five paper metrics (one panel each, its unit on the y
+/// axis; a bar per group with its 95 % interval and a dot per seed; the paper's figures as
+/// dashed lines) to `path`, with a legend naming each group's colour.
 pub fn metrics_chart(groups: &[Group], path: &Path) -> Result<(), ReportError> {
     let summaries: Vec<_> = groups.iter().map(Group::summaries).collect();
-    png(path, (1500, 360), |root| {
-        for (k, panel) in root.split_evenly((1, 5)).iter().enumerate() {
+    let labels: Vec<String> = groups
+        .iter()
+        .map(|g| {
+            let n = g.runs.len();
+            match n {
+                1 => g.label.clone(),
+                _ => format!("{} ({n} seeds)", g.label),
+            }
+        })
+        .collect();
+    png(path, (1500, 400 + LEGEND_HEIGHT), |root| {
+        let (charts, legend) = root.split_vertically(400);
+        for (k, panel) in charts.split_evenly((1, 5)).iter().enumerate() {
             let title = summaries[0][k].metric;
             let bars: Vec<(Estimate, &[f64])> = summaries
                 .iter()
                 .map(|s| (s[k].mean, s[k].per_seed.as_slice()))
                 .collect();
-            bar_panel(panel, title, &bars)?;
+            bar_panel(panel, title, &bars, &paper_lines(k))?;
         }
-        Ok(())
+        legend_strip(&legend, &labels)
     })
+}
+
+/// A row of colour swatches with the group names, in bar order.
+fn legend_strip(area: &Drawing<'_>, labels: &[String]) -> Result<(), DrawError> {
+    let style: TextStyle = ("sans-serif", 14).into_font().into();
+    let mut x = 70;
+    for (i, label) in labels.iter().enumerate() {
+        let y = (LEGEND_HEIGHT / 2) as i32;
+        area.draw(&Rectangle::new(
+            [(x, y - 7), (x + 14, y + 7)],
+            colour(i).mix(0.6).filled(),
+        ))?;
+        area.draw(&Text::new(label.as_str(), (x + 20, y - 8), style.clone()))?;
+        let (w, _) = area.estimate_text_size(label, &style)?;
+        x += 20 + w as i32 + 30;
+    }
+    Ok(())
 }
 
 fn bar_panel(
     area: &Drawing<'_>,
     title: &str,
     bars: &[(Estimate, &[f64])],
+    paper: &[PaperLine],
 ) -> Result<(), DrawError> {
     let values = bars
         .iter()
@@ -75,6 +143,7 @@ fn bar_panel(
                 .into_iter()
                 .chain(seeds.iter().copied())
         })
+        .chain(paper.iter().map(|p| p.0))
         .filter(|v| v.is_finite());
     let (bottom, top) = values.fold((0.0f64, 0.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
     let top = if top - bottom < 1e-12 {
@@ -88,12 +157,13 @@ fn bar_panel(
         .caption(title, ("sans-serif", 16))
         .margin(8)
         .x_label_area_size(10)
-        .y_label_area_size(55)
+        .y_label_area_size(65)
         .build_cartesian_2d(0.0..n as f64, (bottom - pad).min(0.0)..top + pad)?;
     chart
         .configure_mesh()
         .disable_x_mesh()
         .disable_x_axis()
+        .y_desc(unit(title))
         .y_labels(6)
         .y_label_formatter(&|v| tick(*v, top - bottom))
         .label_style(("sans-serif", 12))
@@ -119,6 +189,32 @@ fn bar_panel(
                 )
             }))?;
         }
+    }
+    draw_paper_lines(&mut chart, paper, n as f64)
+}
+
+/// The paper's figures as dashed red lines across `0..width`, each labelled above its
+/// left end.
+fn draw_paper_lines(
+    chart: &mut ChartContext<'_, BitMapBackend<'_>, Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>>,
+    paper: &[PaperLine],
+    width: f64,
+) -> Result<(), DrawError> {
+    for (v, label) in paper {
+        chart.draw_series(DashedLineSeries::new(
+            [(0.0, *v), (width, *v)],
+            6,
+            4,
+            RED.stroke_width(2),
+        ))?;
+        chart.draw_series([Text::new(
+            label.clone(),
+            (0.02 * width, *v),
+            ("sans-serif", 12)
+                .into_font()
+                .color(&RED)
+                .pos(Pos::new(HPos::Left, VPos::Bottom)),
+        )])?;
     }
     Ok(())
 }
@@ -158,14 +254,34 @@ fn band(group: &Group, value: fn(&EvalPoint) -> f64) -> Vec<BandPoint> {
 /// Writes a PNG of the learner groups' learning curves (evaluation mean return and score
 /// rate against env steps: mean over seeds with a 95 % band) to `path`.
 pub fn learning_curves(groups: &[Group], path: &Path) -> Result<(), ReportError> {
-    type Series = (&'static str, fn(&EvalPoint) -> f64, Option<(f64, f64)>);
+    type Series = (
+        &'static str,
+        &'static str,
+        fn(&EvalPoint) -> f64,
+        Option<(f64, f64)>,
+        Vec<PaperLine>,
+    );
     let series: [Series; 2] = [
-        ("evaluation mean return", |e| e.1, None),
-        ("evaluation score rate", |e| e.2, Some((0.0, 1.0))),
+        (
+            "evaluation mean return",
+            "return per episode",
+            |e| e.1,
+            None,
+            Vec::new(),
+        ),
+        (
+            "evaluation score rate",
+            "share of episodes that scored",
+            |e| e.2,
+            Some((0.0, 1.0)),
+            paper_lines(0),
+        ),
     ];
     let learners: Vec<&Group> = groups.iter().filter(|g| !g.runs[0].is_baseline()).collect();
     png(path, (1200, 450), |root| {
-        for (panel, (title, value, range)) in root.split_evenly((1, 2)).iter().zip(series) {
+        for (panel, (title, y_desc, value, range, paper)) in
+            root.split_evenly((1, 2)).iter().zip(series)
+        {
             let bands: Vec<Band> = learners
                 .iter()
                 .map(|g| {
@@ -174,7 +290,7 @@ pub fn learning_curves(groups: &[Group], path: &Path) -> Result<(), ReportError>
                     (format!("{} ({n} {seeds})", g.label), band(g, value))
                 })
                 .collect();
-            curve_panel(panel, title, &bands, range)?;
+            curve_panel(panel, (title, y_desc), &bands, range, &paper)?;
         }
         Ok(())
     })
@@ -182,9 +298,10 @@ pub fn learning_curves(groups: &[Group], path: &Path) -> Result<(), ReportError>
 
 fn curve_panel(
     area: &Drawing<'_>,
-    title: &str,
+    (title, y_desc): (&str, &str),
     bands: &[Band],
     range: Option<(f64, f64)>,
+    paper: &[PaperLine],
 ) -> Result<(), DrawError> {
     let points = bands.iter().flat_map(|(_, b)| b.iter());
     let max_step = points.clone().map(|p| p.0).fold(1.0, f64::max);
@@ -208,6 +325,7 @@ fn curve_panel(
     chart
         .configure_mesh()
         .x_desc("env steps")
+        .y_desc(y_desc)
         .x_label_formatter(&|v| format!("{v:.0}"))
         .y_label_formatter(&|v| tick(*v, hi - lo + 2.0 * pad))
         .label_style(("sans-serif", 12))
@@ -228,6 +346,7 @@ fn curve_panel(
             .label(label.as_str())
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
     }
+    draw_paper_lines(&mut chart, paper, max_step)?;
     chart
         .configure_series_labels()
         .position(SeriesLabelPosition::UpperLeft)
@@ -236,4 +355,35 @@ fn curve_panel(
         .label_font(("sans-serif", 12))
         .draw()?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::play::metrics::TestMetrics;
+
+    #[test]
+    fn every_metric_panel_names_its_unit_and_the_papers_figures() {
+        let one = crate::play::metrics::EpisodeSummary {
+            steps: 1,
+            ..Default::default()
+        };
+        let names = TestMetrics::from_episodes(&[one]).rows().map(|(name, _)| name);
+        let units: Vec<&str> = names.iter().map(|n| unit(n)).collect();
+        assert_eq!(
+            units[..5],
+            [
+                "share of episodes that scored",
+                "cm",
+                "cm/s",
+                "reward summed over an episode",
+                "cm"
+            ]
+        );
+        let score: Vec<f64> = paper_lines(0).iter().map(|l| l.0).collect();
+        assert_eq!(score, [0.429, 0.215]);
+        let distance: Vec<String> = paper_lines(4).into_iter().map(|l| l.1).collect();
+        assert_eq!(distance, ["paper SAC 24.87 cm", "paper TD3 31.92 cm"]);
+        assert!((1..4).all(|k| paper_lines(k).is_empty()));
+    }
 }

@@ -18,6 +18,13 @@ use super::stats::{self, mean};
 use crate::play::metrics::Estimate;
 use serde::Serialize;
 
+/// The paper's SAC test score rate (share of 1,000 episodes).
+pub const PAPER_SAC_SCORE_RATE: f64 = 0.429;
+/// The bound the paper puts PPO's and TD3's score rates under.
+pub const PAPER_OTHERS_SCORE_RATE_BELOW: f64 = 0.215;
+/// The paper's mean final distances to goal, cm: SAC's and TD3's.
+pub const PAPER_FINAL_DISTANCE: [(&str, f64); 2] = [("sac", 24.87), ("td3", 31.92)];
+
 /// Index of each metric in [`crate::play::metrics::TestMetrics::rows`].
 const SCORE_RATE: usize = 0;
 const BALL_SPEED: usize = 2;
@@ -104,7 +111,7 @@ pub fn verdicts(groups: &[Group]) -> Vec<Verdict> {
             "0.429",
             sac.map(|s| {
                 let e = over(s, SCORE_RATE);
-                let v = if (e.ci95[0]..=e.ci95[1]).contains(&0.429) {
+                let v = if (e.ci95[0]..=e.ci95[1]).contains(&PAPER_SAC_SCORE_RATE) {
                     "reproduced"
                 } else {
                     "not reproduced"
@@ -126,7 +133,7 @@ pub fn verdicts(groups: &[Group]) -> Vec<Verdict> {
                 "< 0.215",
                 other.map(|o| {
                     let e = over(o, SCORE_RATE);
-                    (fmt(&e), guard(&[o], below(&e, 0.215)))
+                    (fmt(&e), guard(&[o], below(&e, PAPER_OTHERS_SCORE_RATE_BELOW)))
                 }),
             );
         }
