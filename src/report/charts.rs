@@ -7,6 +7,7 @@ use super::claims::{PAPER_FINAL_DISTANCE, PAPER_OTHERS_SCORE_RATE_BELOW, PAPER_S
 use super::stats::{self, mean};
 use super::{EvalPoint, Group, ReportError, error};
 use crate::play::metrics::Estimate;
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::path::Path;
@@ -196,7 +197,7 @@ fn bar_panel(
 /// The paper's figures as dashed red lines across `0..width`, each labelled above its
 /// left end.
 fn draw_paper_lines(
-    chart: &mut ChartContext<'_, BitMapBackend<'_>, Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>>,
+    chart: &mut ChartContext<'_, BitMapBackend<'_>, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
     paper: &[PaperLine],
     width: f64,
 ) -> Result<(), DrawError> {
@@ -368,7 +369,9 @@ mod tests {
             steps: 1,
             ..Default::default()
         };
-        let names = TestMetrics::from_episodes(&[one]).rows().map(|(name, _)| name);
+        let names = TestMetrics::from_episodes(&[one])
+            .rows()
+            .map(|(name, _)| name);
         let units: Vec<&str> = names.iter().map(|n| unit(n)).collect();
         assert_eq!(
             units[..5],
