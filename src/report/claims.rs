@@ -133,7 +133,10 @@ pub fn verdicts(groups: &[Group]) -> Vec<Verdict> {
                 "< 0.215",
                 other.map(|o| {
                     let e = over(o, SCORE_RATE);
-                    (fmt(&e), guard(&[o], below(&e, PAPER_OTHERS_SCORE_RATE_BELOW)))
+                    (
+                        fmt(&e),
+                        guard(&[o], below(&e, PAPER_OTHERS_SCORE_RATE_BELOW)),
+                    )
                 }),
             );
         }
