@@ -62,6 +62,27 @@ impl TestActions {
     }
 }
 
+/// Which saved networks of a run.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Checkpoint {
+    /// The networks of the best evaluation.
+    Best,
+    /// The networks after the last finished epoch.
+    #[default]
+    Last,
+}
+
+impl Checkpoint {
+    /// Lower-case name, also the folder the run keeps them in.
+    pub fn name(self) -> &'static str {
+        match self {
+            Checkpoint::Best => "best",
+            Checkpoint::Last => "last",
+        }
+    }
+}
+
 /// The training and testing protocol (the paper's by default).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -81,6 +102,10 @@ pub struct Protocol {
     /// How the agent acts in the final test: `deterministic` (the paper's text, default)
     /// or `stochastic` (its code). Evaluations during training are always deterministic.
     pub test_actions: TestActions,
+    /// Which networks the final test plays: `last` (after the last epoch, default) or
+    /// `best` (of the best evaluation by mean return, as the paper code's test loads
+    /// SB3's `best_model.zip`).
+    pub test_networks: Checkpoint,
     /// Rollout workers (environments stepped together).
     pub envs: usize,
     /// Rayon threads for env workers and the backend; 0 means one per core.
@@ -106,6 +131,7 @@ impl Default for Protocol {
             eval_episodes: 10,
             test_episodes: 1_000,
             test_actions: TestActions::Deterministic,
+            test_networks: Checkpoint::Last,
             envs: 1,
             threads: 0,
             backend: None,
@@ -424,6 +450,16 @@ impl RunConfig {
         positive(p.eval_episodes > 0, "eval_episodes")?;
         positive(p.test_episodes > 0, "test_episodes")?;
         positive(p.envs > 0, "envs")?;
+        if p.test_networks == Checkpoint::Best && p.eval_every > p.total_env_steps() {
+            return Err(ConfigError::new(
+                "protocol.test_networks",
+                format!(
+                    "`best` needs an evaluation, but eval_every ({}) exceeds the run's {} env steps",
+                    p.eval_every,
+                    p.total_env_steps()
+                ),
+            ));
+        }
         if let Some(b) = p.backend
             && !b.is_compiled()
         {

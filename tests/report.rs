@@ -73,7 +73,7 @@ fn report_tables_and_charts_several_runs() {
         md.contains("| reference* | SAC's score rate is 42.9 % | 0.429 |"),
         "{md}"
     );
-    assert_eq!(png_size(&out.join("metrics.png")), (1500, 360));
+    assert_eq!(png_size(&out.join("metrics.png")), (1500, 440));
     // The runs kept their test trajectories: each group's best and worst episode as GIFs.
     assert!(md.contains("# Test episodes"), "{md}");
     for gif in ["ppo_reference__16-best.gif", "sac_reference__16-worst.gif"] {

@@ -236,6 +236,47 @@ fn evaluate_reproduces_the_test_of_the_saved_networks() {
 }
 
 #[test]
+fn the_paper_codes_test_plays_the_best_networks_sampled_and_evaluate_repeats_it() {
+    let dir = scratch("code-test");
+    let text = common::tiny_config_text("sac", 2, 150).replace(
+        "test_episodes = 3\n",
+        "test_episodes = 3\ntest_networks = \"best\"\ntest_actions = \"stochastic\"\n",
+    );
+    let config = dir.join("sac.toml");
+    std::fs::write(&config, text).unwrap();
+    let run_dir = dir.join("run");
+    let trained = run(&config, &run_dir, "1");
+    let r = run_dir.to_str().unwrap();
+    // evaluate's defaults for this run: the best networks (always), sampled actions (the run's).
+    let o = evaluate(&["--run", r]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let again =
+        std::fs::read_to_string(run_dir.join("evaluate-best-stochastic/metrics.json")).unwrap();
+    assert_eq!(again, trained);
+    // The last networks acting deterministically play other episodes.
+    let o = evaluate(&[
+        "--run",
+        r,
+        "--checkpoint",
+        "last",
+        "--actions",
+        "deterministic",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let last = std::fs::read_to_string(run_dir.join("evaluate-last/metrics.json")).unwrap();
+    assert_ne!(last, trained);
+    // `best` without an evaluation is refused by key.
+    let never = common::tiny_config_text("sac", 1, 50).replace(
+        "eval_every = 100",
+        "eval_every = 100\ntest_networks = \"best\"",
+    );
+    std::fs::write(&config, never).unwrap();
+    let e = refused(&["--config", config.to_str().unwrap(), "--out", r, "--force"]);
+    assert!(e.contains("protocol.test_networks"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn train_prints_its_budget_before_training() {
     let dir = scratch("budget");
     let config = tiny_config(&dir, "td3");

@@ -5,29 +5,10 @@ use super::evaluation::{Episodes, PlayedEpisode, play_agent, write_test};
 use super::metrics::TestMetrics;
 use super::scripted::{Baseline, ScriptedPolicy};
 use crate::agents::{build_agent, device};
-use crate::config::{RunConfig, TestActions};
+use crate::config::{Checkpoint, RunConfig, TestActions};
 use foosball_env::seeding::TEST_ENVS;
 use foosball_env::{FoosballConfig, Preset};
 use std::path::{Path, PathBuf};
-
-/// Which saved networks of a run.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum Checkpoint {
-    /// The networks of the best evaluation.
-    Best,
-    /// The networks after the last finished epoch.
-    Last,
-}
-
-impl Checkpoint {
-    /// Lower-case name, also the folder the run keeps them in.
-    pub fn name(self) -> &'static str {
-        match self {
-            Checkpoint::Best => "best",
-            Checkpoint::Last => "last",
-        }
-    }
-}
 
 /// The command-line options that choose a [`Player`].
 #[derive(clap::Args, Clone, Debug, Default)]

@@ -6,7 +6,7 @@ use super::checkpoint::{self, CheckpointError, LoopState};
 use super::log::{CSV_FILES, RunLog, Speed};
 use crate::agents::{build_agent, device};
 use crate::config::RunConfig;
-use crate::config::TestActions;
+use crate::config::{Checkpoint, TestActions};
 use crate::files::{RunFileError, write_atomic};
 use crate::play::evaluation::{Episodes, PlayError, foosball_envs, play_agent, write_test};
 use crate::play::metrics::TestMetrics;
@@ -282,6 +282,9 @@ pub fn train(
             report(&progress(steps, Event::Checkpoint(epoch)));
         }
         report(&progress(agent.env_steps(), Event::Test));
+        if p.test_networks == Checkpoint::Best {
+            agent.load(&run_dir.join(Checkpoint::Best.name()))?;
+        }
         let episodes = Episodes {
             env: &config.env,
             seed: p.seed,
