@@ -5,8 +5,7 @@
 use super::checkpoint::{self, CheckpointError, LoopState};
 use super::log::{CSV_FILES, RunLog, Speed};
 use crate::agents::{build_agent, device};
-use crate::config::RunConfig;
-use crate::config::{Checkpoint, TestActions};
+use crate::config::{Checkpoint, RunConfig, TestActions};
 use crate::files::{RunFileError, write_atomic};
 use crate::play::evaluation::{Episodes, PlayError, foosball_envs, play_agent, write_test};
 use crate::play::metrics::TestMetrics;
@@ -257,7 +256,7 @@ pub fn train(
                     log.evaluation(steps, &m)?;
                     if m.mean_return.mean > best {
                         best = m.mean_return.mean;
-                        save(agent.as_ref(), &run_dir.join("best"))?;
+                        save(agent.as_ref(), &run_dir.join(Checkpoint::Best.name()))?;
                     }
                     let event = Event::Evaluation {
                         mean_return: m.mean_return.mean,
@@ -270,7 +269,7 @@ pub fn train(
             if let Some(speed) = log.end_window(steps, agent.gradient_steps())? {
                 report(&progress(steps, Event::Window(speed)));
             }
-            save(agent.as_ref(), &run_dir.join("last"))?;
+            save(agent.as_ref(), &run_dir.join(Checkpoint::Last.name()))?;
             let state = LoopState {
                 epoch,
                 next_eval,
