@@ -382,7 +382,7 @@ impl Serialize for FoosballConfig {
 
 impl<'de> Deserialize<'de> for FoosballConfig {
     /// Reads the keys as a table, lays them over the preset's values and deserialises
-    /// the result (unknown keys are refused by name).
+    /// the result (unknown keys and bad values are refused by dotted key).
     fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
         use serde::de::Error;
         let given = toml::Table::deserialize(deserializer)?;
@@ -397,8 +397,16 @@ impl<'de> Deserialize<'de> for FoosballConfig {
         };
         let mut merged = toml::Table::try_from(Self::preset(preset)).map_err(D::Error::custom)?;
         overlay(&mut merged, given);
-        FoosballConfig::deserialize(toml::Value::Table(merged))
-            .map_err(|e| D::Error::custom(e.message().trim()))
+        // The merged table has no spans; the error names the dotted key instead.
+        let mut track = serde_path_to_error::Track::new();
+        let keys = serde_path_to_error::Deserializer::new(toml::Value::Table(merged), &mut track);
+        FoosballConfig::deserialize(keys).map_err(|e| {
+            let message = e.message().trim();
+            match track.path().to_string().as_str() {
+                "." => D::Error::custom(message),
+                key => D::Error::custom(format!("{key}: {message}")),
+            }
+        })
     }
 }
 

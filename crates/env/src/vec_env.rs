@@ -146,13 +146,24 @@ impl<E: Env> VecEnv<E> {
     /// Resets env `i` with `seeds[i]` (one seed per env).
     pub fn reset_with_seeds(&mut self, seeds: &[u64]) -> &[f32] {
         assert_eq!(seeds.len(), self.envs.len(), "one seed per env");
+        let seeds: Vec<Option<u64>> = seeds.iter().copied().map(Some).collect();
+        self.reset_each(&seeds)
+    }
+
+    /// Resets every env from its own random stream, without re-seeding (Gymnasium's
+    /// `reset()` without a seed): the next episodes of each env's sequence.
+    pub fn reset_unseeded(&mut self) -> &[f32] {
+        self.reset_each(&vec![None; self.envs.len()])
+    }
+
+    fn reset_each(&mut self, seeds: &[Option<u64>]) -> &[f32] {
         let od = self.obs_dim;
         self.pool.install(|| {
             self.envs
                 .par_iter_mut()
                 .zip(self.obs.par_chunks_mut(od))
                 .zip(seeds.par_iter())
-                .for_each(|((env, obs), &seed)| env.reset_into(Some(seed), obs));
+                .for_each(|((env, obs), &seed)| env.reset_into(seed, obs));
         });
         self.started = true;
         &self.obs

@@ -1,0 +1,38 @@
+//! The foosball table for Python: the extension module `foosball_rl._core`.
+//!
+//! - [`table::Table`]: one [`foosball_env::FoosballEnv`] (Gymnasium's `Env` is built on
+//!   it in `python/foosball_rl/env.py`).
+//! - [`vec_table::VecTable`]: N tables stepped in parallel by the Rust
+//!   [`foosball_env::VecEnv`] with the GIL released, batches handed over as numpy arrays
+//!   (`python/foosball_rl/vector.py` makes it a Gymnasium `VectorEnv`).
+//! - [`settings`]: a [`foosball_env::FoosballConfig`] from a preset name, a TOML file and
+//!   keyword overrides, refused by dotted key.
+//! - [`episode`]: the paper's per-episode metrics, tallied as the steps go.
+//! - [`to_python`]: shapes, infos, metrics and frames as Python objects.
+//! - [`errors`]: the Python exceptions, and the guard that turns a Rust panic into one.
+//!
+//! Python is an optional front: nothing of the training framework depends on this crate.
+
+pub mod episode;
+pub mod errors;
+pub mod settings;
+pub mod table;
+pub mod to_python;
+pub mod vec_table;
+
+use pyo3::prelude::*;
+
+/// The extension module: the two classes, the exceptions and the preset names.
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add_class::<table::Table>()?;
+    m.add_class::<vec_table::VecTable>()?;
+    m.add("ConfigError", py.get_type::<errors::ConfigError>())?;
+    m.add("ActionError", py.get_type::<errors::ActionError>())?;
+    m.add("ResetNeeded", py.get_type::<errors::ResetNeeded>())?;
+    let presets: Vec<&str> = foosball_env::Preset::ALL.iter().map(|p| p.name()).collect();
+    m.add("PRESETS", presets)?;
+    m.add("END_REASONS", foosball_env::EndReason::ALL.map(|e| e.name()).to_vec())?;
+    Ok(())
+}
