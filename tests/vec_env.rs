@@ -138,3 +138,21 @@ fn a_restart_cuts_running_episodes_and_reseeds_every_env() {
     let mut fresh = foosball_vec(n, 1);
     assert_eq!(s.obs, fresh.reset_with_seeds(&seeds));
 }
+
+#[test]
+fn an_unseeded_reset_continues_every_env_stream() {
+    // reset(seed), then reset_unseeded(): each env's second episode is the one that
+    // env alone would start after its own seeded first episode.
+    let mut venv = foosball_vec(3, 2);
+    venv.reset(5);
+    let batch = venv.reset_unseeded().to_vec();
+    for i in 0..3 {
+        let mut env = FoosballEnv::new(venv.envs()[i].config().clone()).unwrap();
+        env.reset(Some(foosball_rl::env::seeding::derive_seed(
+            5,
+            foosball_rl::env::seeding::TRAIN_ENVS,
+            i as u64,
+        )));
+        assert_eq!(env.reset(None), batch[i * OBS_DIM..(i + 1) * OBS_DIM]);
+    }
+}

@@ -67,12 +67,11 @@ class FoosballEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         """Starts an episode. With `seed` the table restarts its random stream from it;
         without, the first reset draws a seed from `np_random` and later ones go on."""
+        _check_seed(seed)
         super().reset(seed=seed)
         if seed is None and not getattr(self, "_started", False):
             seed = int(self.np_random.integers(0, 2**63))
         self._started = True
-        if seed is not None and not 0 <= seed < 2**64:
-            raise ValueError(f"seed must be in [0, 2**64), got {seed}")
         return self._table.reset(seed), {}
 
     def step(self, action):
@@ -92,3 +91,9 @@ class FoosballEnv(gym.Env):
     def state(self) -> np.ndarray | None:
         """The noise-free 38-dim state, whatever the observation kind."""
         return self._table.state()
+
+
+def _check_seed(seed) -> None:
+    """Refuses a seed the Rust table cannot take (a u64)."""
+    if seed is not None and not (isinstance(seed, (int, np.integer)) and 0 <= seed < 2**64):
+        raise ValueError(f"seed must be an integer in [0, 2**64), got {seed!r}")

@@ -11,6 +11,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from foosball_rl._core import ActionError, VecTable
+from foosball_rl.env import _check_seed
 
 # Per-step info keys, each a [num_envs] array.
 _STEP_KEYS = ("goal_distance", "ball_speed", "steps", "in_goal", "in_own_goal", "scored", "conceded")
@@ -74,14 +75,13 @@ class FoosballVectorEnv(VectorEnv):
         first reset draws a seed from `np_random` and later ones go on."""
         if isinstance(seed, (list, tuple)):
             raise ValueError("FoosballVectorEnv.reset takes one seed for the batch (table i is seeded from it and i)")
+        _check_seed(seed)
         self._np_random_seed = seed
         if seed is not None:
             self._np_random, self._np_random_seed = gym.utils.seeding.np_random(seed)
         if seed is None and not self._seeded:
             seed = int(self.np_random.integers(0, 2**63))
         self._seeded = True
-        if seed is not None and not 0 <= seed < 2**64:
-            raise ValueError(f"seed must be in [0, 2**64), got {seed}")
         return self._tables.reset(seed), {}
 
     def step(self, actions):
