@@ -9,7 +9,8 @@ use std::path::PathBuf;
 use std::sync::Mutex;
 
 use foosball_env::{FoosballEnv, FoosballInfo, VecEnv};
-use numpy::{PyArray3, PyReadonlyArray2};
+use foosball_env::layout::ACTION_DIM;
+use numpy::{PyArray3, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -194,6 +195,38 @@ impl VecTable {
                 infos,
                 ended,
             ))
+        })
+    }
+
+    /// The Rust-native loop the Python overhead is measured against: steps the tables
+    /// once per row of `actions` (float32 `[steps, num_envs, 8]`) exactly as
+    /// [`VecTable::step`] does (auto-reset, metrics tallied, results copied out), without
+    /// returning to Python between steps; returns the wall-clock seconds it took.
+    fn step_native(&mut self, py: Python<'_>, actions: PyReadonlyArray3<'_, f32>) -> PyResult<f64> {
+        guarded(|| {
+            let shape = actions.shape().to_vec();
+            if shape[1..] != [self.tallies.len(), ACTION_DIM] {
+                return Err(ActionError::new_err(format!(
+                    "actions have shape {shape:?}, expected [steps, {}, {ACTION_DIM}]",
+                    self.tallies.len()
+                )));
+            }
+            let actions = actions
+                .as_slice()
+                .map_err(|e| ActionError::new_err(format!("actions: {e}")))?;
+            let Self {
+                vec, batch, tallies, ..
+            } = self;
+            let vec = vec.get_mut().unwrap_or_else(|p| p.into_inner());
+            let row = tallies.len() * ACTION_DIM;
+            py.detach(|| {
+                let start = std::time::Instant::now();
+                for a in actions.chunks(row) {
+                    step_into_batch(vec, tallies, batch, a)?;
+                }
+                Ok(start.elapsed().as_secs_f64())
+            })
+            .map_err(|e| vec_env_error(&e))
         })
     }
 
