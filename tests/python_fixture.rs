@@ -155,8 +155,12 @@ fn the_rust_env_writes_the_committed_python_fixture() {
         let text = serde_json::to_string(&now).unwrap();
         std::fs::write(&path, text + "\n").unwrap();
     }
-    let text = std::fs::read_to_string(&path)
-        .unwrap_or_else(|e| panic!("{}: {e} (FOOSBALL_UPDATE_FIXTURES=1 writes it)", path.display()));
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| {
+        panic!(
+            "{}: {e} (FOOSBALL_UPDATE_FIXTURES=1 writes it)",
+            path.display()
+        )
+    });
     let committed: Fixture = serde_json::from_str(&text).unwrap();
     assert_eq!(committed, now, "the env no longer plays {FIXTURE}");
 }

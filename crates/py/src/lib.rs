@@ -20,9 +20,11 @@ pub mod table;
 pub mod to_python;
 pub mod vec_table;
 
+use foosball_env::seeding;
 use pyo3::prelude::*;
 
-/// The extension module: the two classes, the exceptions and the preset names.
+/// The extension module: the two classes, the exceptions, the preset names and the
+/// seeding of the Rust framework.
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
@@ -33,6 +35,21 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("ResetNeeded", py.get_type::<errors::ResetNeeded>())?;
     let presets: Vec<&str> = foosball_env::Preset::ALL.iter().map(|p| p.name()).collect();
     m.add("PRESETS", presets)?;
-    m.add("END_REASONS", foosball_env::EndReason::ALL.map(|e| e.name()).to_vec())?;
+    m.add(
+        "END_REASONS",
+        foosball_env::EndReason::ALL.map(|e| e.name()).to_vec(),
+    )?;
+    m.add_function(wrap_pyfunction!(derive_seed, m)?)?;
+    m.add("TRAIN_ENVS", seeding::TRAIN_ENVS)?;
+    m.add("EVAL_ENVS", seeding::EVAL_ENVS)?;
+    m.add("TEST_ENVS", seeding::TEST_ENVS)?;
     Ok(())
+}
+
+/// The seed of item `index` of stream `stream` under run seed `run_seed`, as every
+/// random stream of the Rust framework derives (e.g. test episode `i` of a run:
+/// `derive_seed(seed, TEST_ENVS, i)`).
+#[pyfunction]
+fn derive_seed(run_seed: u64, stream: u64, index: u64) -> u64 {
+    seeding::derive_seed(run_seed, stream, index)
 }

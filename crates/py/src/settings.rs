@@ -9,9 +9,9 @@
 use std::path::Path;
 
 use foosball_env::FoosballConfig;
-use serde::Deserialize;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
+use serde::Deserialize;
 use toml::{Table, Value};
 
 use crate::errors::ConfigError;
@@ -71,7 +71,9 @@ fn insert_dotted(table: &mut Table, key: &str, value: Value) -> PyResult<()> {
     let mut walked = String::new();
     while let Some(part) = parts.next() {
         if part.is_empty() {
-            return Err(ConfigError::new_err(format!("override key `{key}` has an empty part")));
+            return Err(ConfigError::new_err(format!(
+                "override key `{key}` has an empty part"
+            )));
         }
         if !walked.is_empty() {
             walked.push('.');
@@ -86,12 +88,10 @@ fn insert_dotted(table: &mut Table, key: &str, value: Value) -> PyResult<()> {
             }
             return Ok(());
         }
-        let next = at
-            .entry(part)
-            .or_insert_with(|| Value::Table(Table::new()));
-        at = next.as_table_mut().ok_or_else(|| {
-            ConfigError::new_err(format!("`{walked}` is a value, not a section"))
-        })?;
+        let next = at.entry(part).or_insert_with(|| Value::Table(Table::new()));
+        at = next
+            .as_table_mut()
+            .ok_or_else(|| ConfigError::new_err(format!("`{walked}` is a value, not a section")))?;
     }
     Ok(())
 }
@@ -128,9 +128,9 @@ fn to_toml(value: &Bound<'_, PyAny>, key: &str) -> PyResult<Value> {
     if let Ok(d) = value.cast::<PyDict>() {
         let mut table = Table::new();
         for (k, v) in d.iter() {
-            let k: String = k.extract().map_err(|_| {
-                ConfigError::new_err(format!("`{key}`: key {k} is not a string"))
-            })?;
+            let k: String = k
+                .extract()
+                .map_err(|_| ConfigError::new_err(format!("`{key}`: key {k} is not a string")))?;
             let v = to_toml(&v, &format!("{key}.{k}"))?;
             insert_dotted(&mut table, &k, v)?;
         }

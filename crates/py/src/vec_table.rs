@@ -8,8 +8,8 @@
 use std::path::PathBuf;
 use std::sync::Mutex;
 
-use foosball_env::{FoosballEnv, FoosballInfo, VecEnv};
 use foosball_env::layout::ACTION_DIM;
+use foosball_env::{FoosballEnv, FoosballInfo, VecEnv};
 use numpy::{PyArray3, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -163,7 +163,10 @@ impl VecTable {
                 .map_err(|e| ActionError::new_err(format!("actions: {e}")))?
                 .to_vec();
             let Self {
-                vec, batch, tallies, ..
+                vec,
+                batch,
+                tallies,
+                ..
             } = self;
             let vec = vec.get_mut().unwrap_or_else(|p| p.into_inner());
             py.detach(|| step_into_batch(vec, tallies, batch, &actions))
@@ -171,9 +174,14 @@ impl VecTable {
             let n = self.tallies.len();
             let b = &self.batch;
             let infos = PyDict::new(py);
-            let column = |f: fn(&FoosballInfo) -> f32| -> Vec<f32> { b.infos.iter().map(f).collect() };
-            let flag = |f: fn(&FoosballInfo) -> bool| -> Vec<bool> { b.infos.iter().map(f).collect() };
-            infos.set_item("goal_distance", array(py, &column(|i| i.goal_distance), &[n])?)?;
+            let column =
+                |f: fn(&FoosballInfo) -> f32| -> Vec<f32> { b.infos.iter().map(f).collect() };
+            let flag =
+                |f: fn(&FoosballInfo) -> bool| -> Vec<bool> { b.infos.iter().map(f).collect() };
+            infos.set_item(
+                "goal_distance",
+                array(py, &column(|i| i.goal_distance), &[n])?,
+            )?;
             infos.set_item("ball_speed", array(py, &column(|i| i.ball_speed), &[n])?)?;
             let steps: Vec<u32> = b.infos.iter().map(|i| i.steps).collect();
             infos.set_item("steps", array(py, &steps, &[n])?)?;
@@ -215,7 +223,10 @@ impl VecTable {
                 .as_slice()
                 .map_err(|e| ActionError::new_err(format!("actions: {e}")))?;
             let Self {
-                vec, batch, tallies, ..
+                vec,
+                batch,
+                tallies,
+                ..
             } = self;
             let vec = vec.get_mut().unwrap_or_else(|p| p.into_inner());
             let row = tallies.len() * ACTION_DIM;
@@ -273,13 +284,23 @@ impl VecTable {
         };
         d.set_item("return", array(py, &stat(|s| s.ret), &[n])?)?;
         d.set_item("length", array(py, &stat(|s| f64::from(s.length)), &[n])?)?;
-        d.set_item("mean_goal_distance", array(py, &stat(|s| s.mean_goal_distance), &[n])?)?;
-        d.set_item("mean_ball_speed", array(py, &stat(|s| s.mean_ball_speed), &[n])?)?;
+        d.set_item(
+            "mean_goal_distance",
+            array(py, &stat(|s| s.mean_goal_distance), &[n])?,
+        )?;
+        d.set_item(
+            "mean_ball_speed",
+            array(py, &stat(|s| s.mean_ball_speed), &[n])?,
+        )?;
         d.set_item(
             "final_goal_distance",
             array(py, &stat(|s| s.final_goal_distance), &[n])?,
         )?;
-        let scored: Vec<bool> = b.ended.iter().map(|s| s.is_some_and(|s| s.scored)).collect();
+        let scored: Vec<bool> = b
+            .ended
+            .iter()
+            .map(|s| s.is_some_and(|s| s.scored))
+            .collect();
         d.set_item("scored", array(py, &scored, &[n])?)?;
         Ok(d)
     }

@@ -71,3 +71,12 @@ def test_render_gives_one_frame_per_table():
     vec.reset(seed=0)
     frames = vec.render()
     assert len(frames) == 2 and frames[0].dtype == np.uint8 and frames[0].shape[2] == 3
+
+
+def test_a_seeded_batch_is_seeded_like_lone_tables_by_derive_seed():
+    from foosball_rl import TRAIN_ENVS, FoosballEnv, derive_seed
+
+    obs, _ = FoosballVectorEnv(3).reset(seed=12)
+    for i in range(3):
+        lone, _ = FoosballEnv().reset(seed=derive_seed(12, TRAIN_ENVS, i))
+        np.testing.assert_array_equal(obs[i], lone)

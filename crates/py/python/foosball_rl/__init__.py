@@ -16,7 +16,17 @@ the configuration as the Rust side does: a preset name, a TOML file (a run confi
 
 from gymnasium.envs.registration import register
 
-from foosball_rl._core import END_REASONS, PRESETS, ActionError, ConfigError, ResetNeeded
+from foosball_rl._core import (
+    END_REASONS,
+    EVAL_ENVS,
+    PRESETS,
+    TEST_ENVS,
+    TRAIN_ENVS,
+    ActionError,
+    ConfigError,
+    ResetNeeded,
+    derive_seed,
+)
 from foosball_rl.env import FoosballEnv
 from foosball_rl.vector import FoosballVectorEnv
 
@@ -24,10 +34,14 @@ __all__ = [
     "ActionError",
     "ConfigError",
     "END_REASONS",
+    "EVAL_ENVS",
     "FoosballEnv",
     "FoosballVectorEnv",
     "PRESETS",
     "ResetNeeded",
+    "TEST_ENVS",
+    "TRAIN_ENVS",
+    "derive_seed",
     "env_id",
 ]
 
