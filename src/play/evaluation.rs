@@ -9,6 +9,10 @@ use crate::config::TestActions;
 use crate::files::{RunFileError, write_atomic};
 use foosball_algos::{Agent, EpisodeLog, play_episodes, sampled};
 pub use foosball_algos::{BatchPolicy, deterministic};
+
+/// A policy over batches of agent-view observations that owns what it needs (its
+/// networks or controller) and can move to another thread: one side of a match.
+pub type OwnedPolicy = Box<dyn FnMut(&[f32]) -> Vec<f32> + Send>;
 use foosball_env::seeding::{ACTION_SAMPLING, derive_seed};
 use foosball_env::{EnvError, FoosballConfig, FoosballEnv, FoosballInfo, Transition, layout};
 use std::path::Path;

@@ -11,10 +11,14 @@
 //!   test files;
 //! - [`scripted`]: scripted yellow policies (shooter, dribbler, zero, random);
 //! - [`player`]: who plays test episodes for `evaluate` and `render`;
-//! - [`animation`]: episodes as captioned animations (GIF, or MP4 through ffmpeg).
+//! - [`animation`]: episodes as captioned animations (GIF, or MP4 through ffmpeg);
+//! - [`contestant`]: who plays one side of a two-sided match (networks or scripted);
+//! - [`matches`]: two-sided matches to N goals, black driven by any contestant.
 
 pub mod animation;
+pub mod contestant;
 pub mod evaluation;
+pub mod matches;
 pub mod metrics;
 pub mod player;
 pub mod scripted;

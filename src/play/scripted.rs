@@ -1,7 +1,7 @@
 //! Scripted policies for yellow, played through the same evaluation as trained agents:
 //! the yardsticks of the report (`evaluate --policy shooter|dribbler|zero|random`).
 
-use super::evaluation::{BatchPolicy, Episodes, PlayError, PlayedEpisode, play, write_test};
+use super::evaluation::{Episodes, OwnedPolicy, PlayError, PlayedEpisode, play, write_test};
 use super::metrics::TestMetrics;
 use crate::files::{RunFileError, write_atomic};
 use foosball_env::foosball::from_ball_frame;
@@ -45,7 +45,7 @@ impl ScriptedPolicy {
     /// layout replays exactly). The hand-written controllers read the ball in world
     /// coordinates and write linear commands: both are translated from and into `env`'s
     /// `ball_frame` and `action_map`.
-    pub fn batch_policy(self, seed: u64, env: &FoosballConfig) -> Box<BatchPolicy<'static>> {
+    pub fn batch_policy(self, seed: u64, env: &FoosballConfig) -> OwnedPolicy {
         let mut controller: Box<dyn Opponent> = match self {
             ScriptedPolicy::Shooter => Box::new(Kicker::shooter()),
             ScriptedPolicy::Dribbler => Box::new(Kicker::dribbler()),

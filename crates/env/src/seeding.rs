@@ -10,6 +10,7 @@
 //! | [`TEST_ENVS`]  | final-test episode `index` (held out from both) |
 //! | [`LEARNER`]    | the learner's own stream (`index` 0: network init, sampling, noise) |
 //! | [`ACTION_SAMPLING`] | sampled (stochastic) evaluation actions; `index` is the episodes' stream ([`EVAL_ENVS`] or [`TEST_ENVS`]) |
+//! | [`MATCHES`] | two-sided matches of a league: `index` = the match's number among a pair's |
 
 /// Stream of the training environments.
 pub const TRAIN_ENVS: u64 = 1;
@@ -21,6 +22,8 @@ pub const TEST_ENVS: u64 = 3;
 pub const LEARNER: u64 = 4;
 /// Stream of the noise of stochastic evaluations and tests.
 pub const ACTION_SAMPLING: u64 = 5;
+/// Stream of the matches of a league (serves, sampled actions, random players).
+pub const MATCHES: u64 = 6;
 
 /// One SplitMix64 output step.
 fn splitmix64(mut z: u64) -> u64 {

@@ -1,0 +1,169 @@
+//! Two-sided matches: yellow and black each driven by any [`Contestant`], both sides
+//! scoring, the ball served again after every goal, to a number of goals or a time limit.
+//!
+//! Black sees the table through [`foosball_env::layout::mirror_observation`] carried into its ball frame
+//! ([`PolicyOpponent`]), so a policy trained as yellow plays black unchanged.
+//!
+//! The match rules on top of the table's ([`match_table`]): a goal at either end ends the
+//! point; yellow's own goal line is black's goal line mirrored (the reference code's own-goal
+//! test, world y < -69, cannot be reached); the "no progress" rule of the training episode
+//! is off (black attacks the other way); a dead ball (slower than the table's
+//! `stagnant_speed` for `dead_ball_s`) is served again without a goal.
+//!
+//! Kick-off: every serve draws the ball from the table's own start distribution (for
+//! `reference`, at rest 4 cm on yellow's side of the centre line, by yellow's midfield),
+//! from the match's own seed stream. The serve favours neither side over a league
+//! because every pair plays each serve sequence twice, sides swapped.
+
+use foosball_env::layout::{ACTION_DIM, OBS_DIM};
+use foosball_env::seeding::{MATCHES, derive_seed};
+use foosball_env::{
+    EndReason, Env, EnvRng, FoosballConfig, FoosballEnv, Opponent, foosball::in_ball_frame,
+};
+use serde::{Deserialize, Serialize};
+
+use super::contestant::Contestant;
+use super::evaluation::OwnedPolicy;
+use foosball_env::config::BallFrame;
+
+/// How a match is played.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MatchRules {
+    /// The first side to this many goals wins (default 5, ITSF's game).
+    pub goals_to_win: u32,
+    /// Seconds of play after which the side ahead wins, or it is a draw (default 60).
+    pub time_limit_s: f32,
+    /// Seconds a ball may lie dead before it is served again (default 1).
+    pub dead_ball_s: f32,
+}
+
+impl Default for MatchRules {
+    fn default() -> Self {
+        Self {
+            goals_to_win: 5,
+            time_limit_s: 60.0,
+            dead_ball_s: 1.0,
+        }
+    }
+}
+
+impl MatchRules {
+    /// Checks the values; the error names the key.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.goals_to_win == 0 {
+            return Err("match.goals_to_win: must be at least 1".into());
+        }
+        for (key, v) in [
+            ("match.time_limit_s", self.time_limit_s),
+            ("match.dead_ball_s", self.dead_ball_s),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("{key}: must be a finite number > 0, got {v}"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// How a match ended.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct MatchResult {
+    /// Goals yellow scored.
+    pub yellow_goals: u32,
+    /// Goals black scored.
+    pub black_goals: u32,
+    /// Agent steps played.
+    pub steps: u64,
+    /// Serves (kick-offs and dead-ball serves).
+    pub serves: u32,
+}
+
+impl MatchResult {
+    /// Yellow's points: 1 for a win, 0.5 for a draw, 0 for a loss.
+    pub fn yellow_points(&self) -> f64 {
+        match self.yellow_goals.cmp(&self.black_goals) {
+            std::cmp::Ordering::Greater => 1.0,
+            std::cmp::Ordering::Equal => 0.5,
+            std::cmp::Ordering::Less => 0.0,
+        }
+    }
+}
+
+/// `table` with the match rules of the module docs.
+pub fn match_table(table: &FoosballConfig, rules: &MatchRules) -> FoosballConfig {
+    let mut t = table.clone();
+    t.rules.end_on_goal = true;
+    t.rules.no_progress_steps = u32::MAX;
+    t.rules.stagnant_steps = ((rules.dead_ball_s / t.agent_dt()).ceil() as u32).max(1);
+    // own_goal_line_world = -own_goal_line_y + oy  must equal  -(goal_line_y + oy).
+    let oy = t.ball_frame.origin()[1];
+    t.reward.own_goal_line_y = t.reward.goal_line_y + 2.0 * oy;
+    t.max_episode_steps = u32::MAX;
+    t
+}
+
+/// Black driven by a policy trained as yellow: it is handed black's mirrored view in
+/// the table's ball frame, and its action is black's in black's own frame.
+pub struct PolicyOpponent {
+    policy: OwnedPolicy,
+    frame: BallFrame,
+}
+
+impl PolicyOpponent {
+    /// `policy` playing black on a table whose ball numbers are in `frame`.
+    pub fn new(policy: OwnedPolicy, frame: BallFrame) -> Self {
+        Self { policy, frame }
+    }
+}
+
+impl Opponent for PolicyOpponent {
+    fn act(&mut self, obs: &[f32; OBS_DIM], _rng: &mut EnvRng) -> [f32; ACTION_DIM] {
+        let action = (self.policy)(&in_ball_frame(obs, self.frame));
+        std::array::from_fn(|i| action.get(i).copied().unwrap_or(0.0))
+    }
+}
+
+/// Plays one match of `yellow` against `black` on `table` (already a [`match_table`]);
+/// serve `k` is drawn from `derive_seed(seed, MATCHES, k)`, and each side's own random
+/// draws from the same seed. A side's non-finite action counts as all zeros (the rods
+/// hold), as the env does for black.
+pub fn play_match(
+    table: &FoosballConfig,
+    rules: &MatchRules,
+    yellow: &Contestant,
+    black: &Contestant,
+    seed: u64,
+) -> Result<MatchResult, String> {
+    let mut act = yellow.policy(table, derive_seed(seed, MATCHES, u64::MAX))?;
+    let black = black.policy(table, derive_seed(seed, MATCHES, u64::MAX - 1))?;
+    let opponent = PolicyOpponent::new(black, table.ball_frame);
+    let mut env = FoosballEnv::with_opponent(table.clone(), Box::new(opponent))
+        .map_err(|e| format!("match table: env.{e}"))?;
+    let limit = (f64::from(rules.time_limit_s) / f64::from(table.agent_dt())).round() as u64;
+    let mut result = MatchResult::default();
+    while result.steps < limit && result.yellow_goals.max(result.black_goals) < rules.goals_to_win {
+        let mut obs = env.reset(Some(derive_seed(seed, MATCHES, u64::from(result.serves))));
+        result.serves += 1;
+        while result.steps < limit {
+            let mut action = act(&obs);
+            action.resize(ACTION_DIM, 0.0);
+            action
+                .iter_mut()
+                .filter(|a| !a.is_finite())
+                .for_each(|a| *a = 0.0);
+            let (next, t) = env.step(&action).map_err(|e| e.to_string())?;
+            result.steps += 1;
+            obs = next;
+            match t.info.end {
+                Some(EndReason::Scored) => result.yellow_goals += 1,
+                Some(EndReason::Conceded) => result.black_goals += 1,
+                _ => {}
+            }
+            if t.done() {
+                break;
+            }
+        }
+    }
+    Ok(result)
+}
