@@ -8,12 +8,14 @@
 //! This package, in layers (a module imports only from the layers below it):
 //! 1. [`config`] (the run configuration, `configs/*.toml`), [`agents`] (the learner a
 //!    configuration asks for), [`files`] (run files written atomically), [`cli`] (what
-//!    the command-line tools share), [`font`] (the bundled font of charts and captions);
+//!    the command-line tools share), [`font`] (the bundled font of charts and captions),
+//!    [`png`] (charts written atomically);
 //! 2. [`play`]: who plays, episodes on held-out seeds, test metrics, trajectories,
 //!    animations;
 //! 3. [`run`]: one training run (the loop, checkpoints, logs, budget);
-//! 4. [`sweep`] (algorithms x seeds into one directory, resumable) and [`report`]
-//!    (side-by-side tables and charts of several runs).
+//! 4. [`sweep`] (algorithms x seeds into one directory, resumable), [`report`]
+//!    (side-by-side tables and charts of several runs) and [`league`] (round-robins of
+//!    two-sided matches, ratings, the leaderboard).
 //!
 //! `tests/architecture.rs` checks that no import runs back up.
 
@@ -22,7 +24,9 @@ pub mod cli;
 pub mod config;
 pub mod files;
 pub mod font;
+pub mod league;
 pub mod play;
+pub mod png;
 pub mod report;
 pub mod run;
 pub mod sweep;

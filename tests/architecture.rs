@@ -217,13 +217,17 @@ fn the_root_package_s_layers_import_one_way() {
     if let Some(c) = cycle(&g) {
         panic!("src: layers in a circle {}", c.join(" -> "));
     }
-    // The layers of lib.rs: play below run, run below sweep; report reads play and run.
+    // The layers of lib.rs: play below run, run below sweep; report and league read play.
     let uses = |a: &str, b: &str| g.get(a).is_some_and(|u| u.contains(b));
     assert!(uses("run", "play") && uses("sweep", "run") && uses("report", "play"));
-    for low in ["config", "agents", "files", "play"] {
-        for high in ["run", "sweep", "report"] {
+    assert!(uses("league", "play"));
+    for low in ["config", "agents", "files", "png", "play"] {
+        for high in ["run", "sweep", "report", "league"] {
             assert!(!uses(low, high), "{low} imports {high}");
         }
+    }
+    for (a, b) in [("league", "report"), ("report", "league"), ("league", "run")] {
+        assert!(!uses(a, b), "{a} imports {b}");
     }
 }
 

@@ -7,6 +7,7 @@ use super::claims::{PAPER_FINAL_DISTANCE, PAPER_OTHERS_SCORE_RATE_BELOW, PAPER_S
 use super::stats::{self, mean};
 use super::{EvalPoint, Group, ReportError, error};
 use crate::play::metrics::Estimate;
+use crate::png::{DrawError, Drawing};
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -30,25 +31,13 @@ fn colour(i: usize) -> RGBColor {
     RGBColor(r, g, b)
 }
 
-type Drawing<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
-type DrawError =
-    DrawingAreaErrorKind<<BitMapBackend<'static> as plotters::backend::DrawingBackend>::ErrorType>;
-
 /// Draws a PNG of `size` pixels with `draw` into `path`, atomically.
 fn png(
     path: &Path,
     size: (u32, u32),
     draw: impl FnOnce(&Drawing<'_>) -> Result<(), DrawError>,
 ) -> Result<(), ReportError> {
-    crate::font::register();
-    foosball_nets::atomic_file::replace_file(path, |tmp| {
-        let root = BitMapBackend::new(tmp, size).into_drawing_area();
-        root.fill(&WHITE)
-            .and_then(|()| draw(&root))
-            .and_then(|()| root.present())
-            .map_err(|e| std::io::Error::other(e.to_string()))
-    })
-    .map_err(|e| error(path, e))
+    crate::png::png(path, size, draw).map_err(|e| error(path, e))
 }
 
 /// A reference line drawn across a panel: the paper's figure and its label.
