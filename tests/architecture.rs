@@ -226,7 +226,11 @@ fn the_root_package_s_layers_import_one_way() {
             assert!(!uses(low, high), "{low} imports {high}");
         }
     }
-    for (a, b) in [("league", "report"), ("report", "league"), ("league", "run")] {
+    for (a, b) in [
+        ("league", "report"),
+        ("report", "league"),
+        ("league", "run"),
+    ] {
         assert!(!uses(a, b), "{a} imports {b}");
     }
 }

@@ -59,7 +59,7 @@ fn a_league_resumes_and_grows_without_replaying() {
     assert!(after.starts_with(&before), "old matches kept as they were");
     assert_eq!(after.lines().count(), 1 + 6);
     // The same matches as a league made with all three at once.
-    let mut sorted = |s: &str| {
+    let sorted = |s: &str| {
         let mut v: Vec<String> = s.lines().skip(1).map(String::from).collect();
         v.sort();
         v

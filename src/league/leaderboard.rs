@@ -213,7 +213,13 @@ impl Leaderboard {
     fn heatmap(&self, path: &Path) -> Result<(), String> {
         let n = self.agents.len();
         let cell = 64i32;
-        let label_w = 420i32;
+        let longest = self
+            .agents
+            .iter()
+            .map(|a| a.chars().count().min(46))
+            .max()
+            .unwrap_or(0);
+        let label_w = 40 + 8 * longest as i32;
         let size = (
             (label_w + cell * n as i32 + 20) as u32,
             (60 + cell * n as i32 + 40) as u32,

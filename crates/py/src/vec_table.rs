@@ -160,17 +160,8 @@ impl VecTable {
         guarded(|| {
             let actions = actions
                 .as_slice()
-                .map_err(|e| ActionError::new_err(format!("actions: {e}")))?
-                .to_vec();
-            let Self {
-                vec,
-                batch,
-                tallies,
-                ..
-            } = self;
-            let vec = vec.get_mut().unwrap_or_else(|p| p.into_inner());
-            py.detach(|| step_into_batch(vec, tallies, batch, &actions))
-                .map_err(|e| vec_env_error(&e))?;
+                .map_err(|e| ActionError::new_err(format!("actions: {e}")))?;
+            self.step_rows(py, actions)?;
             let n = self.tallies.len();
             let b = &self.batch;
             let infos = PyDict::new(py);
@@ -222,22 +213,7 @@ impl VecTable {
             let actions = actions
                 .as_slice()
                 .map_err(|e| ActionError::new_err(format!("actions: {e}")))?;
-            let Self {
-                vec,
-                batch,
-                tallies,
-                ..
-            } = self;
-            let vec = vec.get_mut().unwrap_or_else(|p| p.into_inner());
-            let row = tallies.len() * ACTION_DIM;
-            py.detach(|| {
-                let start = std::time::Instant::now();
-                for a in actions.chunks(row) {
-                    step_into_batch(vec, tallies, batch, a)?;
-                }
-                Ok(start.elapsed().as_secs_f64())
-            })
-            .map_err(|e| vec_env_error(&e))
+            self.step_rows(py, actions)
         })
     }
 
@@ -262,6 +238,27 @@ impl VecTable {
 }
 
 impl VecTable {
+    /// Steps the tables once per `[num_envs * 8]` row of `actions` with the GIL released
+    /// (the last row's results kept in the batch); returns the wall-clock seconds.
+    fn step_rows(&mut self, py: Python<'_>, actions: &[f32]) -> PyResult<f64> {
+        let Self {
+            vec,
+            batch,
+            tallies,
+            ..
+        } = self;
+        let vec = vec.get_mut().unwrap_or_else(|p| p.into_inner());
+        let row = tallies.len() * ACTION_DIM;
+        py.detach(|| {
+            let start = std::time::Instant::now();
+            for a in actions.chunks(row) {
+                step_into_batch(vec, tallies, batch, a)?;
+            }
+            Ok(start.elapsed().as_secs_f64())
+        })
+        .map_err(|e| vec_env_error(&e))
+    }
+
     /// `[num_envs, *obs_shape]`.
     fn batch_shape(&self) -> Vec<usize> {
         std::iter::once(self.tallies.len())
