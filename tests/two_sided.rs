@@ -125,3 +125,21 @@ fn bad_contestants_are_refused_by_name() {
             .starts_with("match.goals_to_win")
     );
 }
+
+#[test]
+fn a_head_to_head_swaps_sides_on_the_same_serves() {
+    use foosball_rl::play::matches::{head_to_head, round_seed};
+    let table = match_table(&FoosballConfig::default(), &MatchRules::default());
+    let rules = MatchRules {
+        time_limit_s: 3.0,
+        ..MatchRules::default()
+    };
+    let shooter = Contestant::Scripted(ScriptedPolicy::Shooter);
+    let random = Contestant::Scripted(ScriptedPolicy::Random);
+    let played = head_to_head(&table, &rules, &shooter, &random, 2, 9).unwrap();
+    let sides: Vec<bool> = played.iter().map(|(yellow, _)| *yellow).collect();
+    assert_eq!(sides, [true, false, true, false]);
+    // Match 1 of round 1 is the shooter on black against random, served from round 1's seed.
+    let again = play_match(&table, &rules, &random, &shooter, round_seed(9, 1)).unwrap();
+    assert_eq!(played[3].1, again);
+}

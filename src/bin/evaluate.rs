@@ -1,9 +1,14 @@
 //! `evaluate`: the test phase of a finished or interrupted run, on its saved networks, or
-//! of a scripted policy (`--policy shooter|dribbler|zero|random`) under a rule preset.
+//! of a scripted policy (`--policy shooter|dribbler|zero|random`) under a rule preset;
+//! with `--opponent`, two-sided matches against another player instead
+//! ([`foosball_rl::play::matches`]).
 
 use clap::Parser;
 use foosball_rl::cli::finish;
 use foosball_rl::config::TestActions;
+use foosball_rl::play::contestant::Contestant;
+use foosball_rl::play::matches::{self, MatchRules, match_table};
+use foosball_rl::play::metrics::wilson_points;
 use foosball_rl::play::player::{Player, PlayerArgs};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -26,10 +31,66 @@ struct Args {
     /// policy).
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Play two-sided matches against this opponent instead of the test: a scripted
+    /// policy or a run directory (`DIR[@best|@last][~sampled]`), on the player's table
+    /// under the default match rules (first to 5 goals or 60 s; docs/league.md).
+    #[arg(long)]
+    opponent: Option<Contestant>,
+    /// With `--opponent`: matches, even (half on each side; default 10).
+    #[arg(long, requires = "opponent", default_value_t = 10)]
+    matches: u32,
+    /// With `--opponent`: the seed the serves derive from.
+    #[arg(long, requires = "opponent", default_value_t = 0)]
+    match_seed: u64,
+}
+
+/// `player` against `opponent`: W-D-L, goals and the points share with its interval.
+fn head_to_head(
+    player: &Player,
+    opponent: &Contestant,
+    matches: u32,
+    seed: u64,
+) -> Result<String, String> {
+    if matches == 0 || matches % 2 == 1 {
+        return Err(format!(
+            "--matches: must be even and at least 2 (sides swap), got {matches}"
+        ));
+    }
+    let rules = MatchRules::default();
+    let table = match_table(player.env(), &rules);
+    let me = player.contestant();
+    let played = matches::head_to_head(&table, &rules, &me, opponent, matches / 2, seed)?;
+    let (mut w, mut d, mut l, mut scored, mut let_in, mut points) = (0, 0, 0, 0, 0, 0.0);
+    for (on_yellow, r) in &played {
+        let (mine, theirs) = if *on_yellow {
+            (r.yellow_goals, r.black_goals)
+        } else {
+            (r.black_goals, r.yellow_goals)
+        };
+        scored += mine;
+        let_in += theirs;
+        match mine.cmp(&theirs) {
+            std::cmp::Ordering::Greater => (w, points) = (w + 1, points + 1.0),
+            std::cmp::Ordering::Equal => (d, points) = (d + 1, points + 0.5),
+            std::cmp::Ordering::Less => l += 1,
+        }
+    }
+    let [lo, hi] = wilson_points(points, f64::from(matches)).ci95;
+    Ok(format!(
+        "{} against {opponent}: {matches} matches, {w}-{d}-{l} (W-D-L), goals {scored}:{let_in}, \
+         points share {:.0} % [{:.0}, {:.0}] (95 % Wilson)",
+        player.describe(),
+        100.0 * points / f64::from(matches),
+        100.0 * lo,
+        100.0 * hi
+    ))
 }
 
 fn run(args: &Args) -> Result<String, String> {
     let player = Player::from_args(&args.player)?;
+    if let Some(opponent) = &args.opponent {
+        return head_to_head(&player, opponent, args.matches, args.match_seed);
+    }
     let episodes = match args.episodes.unwrap_or(player.default_episodes()) {
         0 => return Err("--episodes must be positive".into()),
         n => n,

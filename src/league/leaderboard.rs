@@ -9,9 +9,10 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use serde::Serialize;
 
-use super::ratings::{Game, fit, intervals, wilson};
+use super::ratings::{Game, fit, intervals};
 use super::round_robin::LeagueDir;
 use crate::files::write_atomic;
+use crate::play::metrics::wilson_points;
 use crate::png::png;
 
 /// Bootstrap resamples of the rating intervals.
@@ -137,7 +138,7 @@ impl Leaderboard {
                         (i != j && m > 0).then(|| Cell {
                             matches: m,
                             win_rate: p / f64::from(m),
-                            ci95: wilson(p, f64::from(m)),
+                            ci95: wilson_points(p, f64::from(m)).ci95,
                         })
                     })
                     .collect()

@@ -3,9 +3,9 @@
 //!
 //! - [`round_robin`]: the league directory (`league.toml`, `matches.csv`), its schedule,
 //!   resumable play on several threads;
-//! - [`ratings`]: the Bradley-Terry fit on the Elo scale, bootstrap intervals, Wilson
-//!   intervals of win rates;
-//! - [`leaderboard`]: standings, the win-rate matrix, and their files
+//! - [`ratings`]: the Bradley-Terry fit on the Elo scale, bootstrap intervals;
+//! - [`leaderboard`]: standings, the win-rate matrix (Wilson intervals,
+//!   [`crate::play::metrics::wilson_points`]), and their files
 //!   (`leaderboard.json`, `leaderboard.md`, `heatmap.png`, `index.html`).
 //!
 //! Imports run one way: `league` reads [`crate::play`] (contestants, matches) and the

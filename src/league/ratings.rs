@@ -107,19 +107,6 @@ pub fn intervals(
         .collect()
 }
 
-/// Wilson 95 % interval of a share `points / n` (draws counted as half a win).
-pub fn wilson(points: f64, n: f64) -> [f64; 2] {
-    if n <= 0.0 {
-        return [0.0, 1.0];
-    }
-    let z = 1.959_963_984_540_054_f64;
-    let p = points / n;
-    let d = 1.0 + z * z / n;
-    let c = (p + z * z / (2.0 * n)) / d;
-    let h = z * (p * (1.0 - p) / n + z * z / (4.0 * n * n)).sqrt() / d;
-    [(c - h).max(0.0), (c + h).min(1.0)]
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -174,12 +161,5 @@ mod tests {
             .collect();
         let r = fit(2, &d, 0);
         assert!((r[1] - r[0]).abs() < 1e-6, "{r:?}");
-    }
-
-    #[test]
-    fn wilson_intervals_bracket_the_share() {
-        let [lo, hi] = wilson(15.0, 20.0);
-        assert!(lo > 0.5 && lo < 0.75 && hi > 0.75 && hi < 1.0);
-        assert_eq!(wilson(0.0, 0.0), [0.0, 1.0]);
     }
 }

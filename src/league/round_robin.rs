@@ -9,13 +9,12 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use foosball_env::FoosballConfig;
-use foosball_env::seeding::{MATCHES, derive_seed};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::files::write_atomic;
 use crate::play::contestant::Contestant;
-use crate::play::matches::{MatchResult, MatchRules, match_table, play_match};
+use crate::play::matches::{MatchResult, MatchRules, match_table, play_match, round_seed};
 
 /// A league's settings and agents (`league.toml`): fixed when it is created, agents
 /// added later.
@@ -205,7 +204,7 @@ impl LeagueDir {
                 chunk
                     .par_iter()
                     .map(|&(y, b, round)| {
-                        let seed = derive_seed(self.league.seed, MATCHES, u64::from(round));
+                        let seed = round_seed(self.league.seed, round);
                         let (yellow, black) = (&contestants[y], &contestants[b]);
                         let result = play_match(&table, &self.league.rules, yellow, black, seed)
                             .map_err(|e| format!("{} vs {}: {e}", yellow, black))?;

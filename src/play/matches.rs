@@ -167,3 +167,28 @@ pub fn play_match(
     }
     Ok(result)
 }
+
+/// The serve seed of round `round` of a pair under a league or head-to-head `seed`: both
+/// matches of a round (sides swapped) are served alike.
+pub fn round_seed(seed: u64, round: u32) -> u64 {
+    derive_seed(seed, MATCHES, u64::from(round))
+}
+
+/// `rounds` rounds of `a` against `b`, each a match with `a` on yellow and one with `b`
+/// on yellow from the same serves: `(a_on_yellow, result)` in that order.
+pub fn head_to_head(
+    table: &FoosballConfig,
+    rules: &MatchRules,
+    a: &Contestant,
+    b: &Contestant,
+    rounds: u32,
+    seed: u64,
+) -> Result<Vec<(bool, MatchResult)>, String> {
+    let mut out = Vec::with_capacity(2 * rounds as usize);
+    for round in 0..rounds {
+        let s = round_seed(seed, round);
+        out.push((true, play_match(table, rules, a, b, s)?));
+        out.push((false, play_match(table, rules, b, a, s)?));
+    }
+    Ok(out)
+}

@@ -89,8 +89,13 @@ pub fn end_shares(ends: impl Iterator<Item = EndReason>) -> BTreeMap<String, f64
 
 /// Wilson score interval of `k` successes in `n` trials.
 pub fn wilson(k: usize, n: usize) -> Estimate {
-    let (k, n) = (k as f64, n as f64);
-    let p = k / n;
+    wilson_points(k as f64, n as f64)
+}
+
+/// Wilson score interval of a share `points / n` of `n > 0` trials whose points may be
+/// halves (a draw in a match counts half a win).
+pub fn wilson_points(points: f64, n: f64) -> Estimate {
+    let p = points / n;
     let z2 = Z95 * Z95;
     let centre = (p + z2 / (2.0 * n)) / (1.0 + z2 / n);
     let half = Z95 / (1.0 + z2 / n) * (p * (1.0 - p) / n + z2 / (4.0 * n * n)).sqrt();

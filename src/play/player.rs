@@ -1,6 +1,7 @@
 //! Who plays test episodes for `evaluate` and `render`: a run's saved networks or a
 //! scripted policy on a table, chosen by the same command-line options in both.
 
+use super::contestant::Contestant;
 use super::evaluation::{Episodes, PlayedEpisode, play_agent, write_test};
 use super::metrics::TestMetrics;
 use super::scripted::{Baseline, ScriptedPolicy};
@@ -178,6 +179,25 @@ impl Player {
                 write_test(dir, &played).map_err(|e| e.to_string())
             }
             Player::Scripted(b) => b.test(episodes, dir, true).map_err(|e| e.to_string()),
+        }
+    }
+}
+
+impl Player {
+    /// It as one side of a two-sided match.
+    pub fn contestant(&self) -> Contestant {
+        match self {
+            Player::Networks {
+                dir,
+                checkpoint,
+                actions,
+                ..
+            } => Contestant::Run {
+                dir: dir.clone(),
+                checkpoint: *checkpoint,
+                actions: *actions,
+            },
+            Player::Scripted(b) => Contestant::Scripted(b.policy),
         }
     }
 }
