@@ -6,6 +6,7 @@ use foosball_env::layout;
 use foosball_env::seeding::{LEARNER, derive_seed};
 use foosball_env::{ObservationConfig, ObservationKind};
 use foosball_nets::{Backend, BackendError, Device, ObsShape};
+use std::path::Path;
 
 /// The agent `config` asks for, its networks drawn from the learner stream; its input is
 /// the observation `config.env` gives (38 state values, or an image through a CNN).
@@ -38,4 +39,15 @@ pub fn device(config: &RunConfig) -> Result<Device, BackendError> {
         None => Backend::default_cpu()?,
     };
     backend.device()
+}
+
+/// The agent `config` asks for with the networks saved in `networks` (a run's `best/` or
+/// `last/`), on its backend's device; an error names the folder.
+pub fn load_agent(config: &RunConfig, networks: &Path) -> Result<Box<dyn Agent + Send>, String> {
+    let device = device(config).map_err(|e| e.to_string())?;
+    let mut agent = build_agent(config, &device);
+    agent
+        .load(networks)
+        .map_err(|e| format!("{}: {e}", networks.display()))?;
+    Ok(agent)
 }

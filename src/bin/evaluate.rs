@@ -7,7 +7,7 @@ use clap::Parser;
 use foosball_rl::cli::finish;
 use foosball_rl::config::TestActions;
 use foosball_rl::play::contestant::Contestant;
-use foosball_rl::play::matches::{self, MatchRules, match_table};
+use foosball_rl::play::matches::{self, MatchRules, Tally, match_table};
 use foosball_rl::play::metrics::wilson_points;
 use foosball_rl::play::player::{Player, PlayerArgs};
 use std::path::PathBuf;
@@ -60,27 +60,21 @@ fn head_to_head(
     let table = match_table(player.env(), &rules);
     let me = player.contestant();
     let played = matches::head_to_head(&table, &rules, &me, opponent, matches / 2, seed)?;
-    let (mut w, mut d, mut l, mut scored, mut let_in, mut points) = (0, 0, 0, 0, 0, 0.0);
+    let mut t = Tally::default();
     for (on_yellow, r) in &played {
-        let (mine, theirs) = if *on_yellow {
-            (r.yellow_goals, r.black_goals)
-        } else {
-            (r.black_goals, r.yellow_goals)
-        };
-        scored += mine;
-        let_in += theirs;
-        match mine.cmp(&theirs) {
-            std::cmp::Ordering::Greater => (w, points) = (w + 1, points + 1.0),
-            std::cmp::Ordering::Equal => (d, points) = (d + 1, points + 0.5),
-            std::cmp::Ordering::Less => l += 1,
-        }
+        t.add(r.side(*on_yellow));
     }
-    let [lo, hi] = wilson_points(points, f64::from(matches)).ci95;
+    let [lo, hi] = wilson_points(t.points, f64::from(matches)).ci95;
     Ok(format!(
-        "{} against {opponent}: {matches} matches, {w}-{d}-{l} (W-D-L), goals {scored}:{let_in}, \
+        "{} against {opponent}: {matches} matches, {}-{}-{} (W-D-L), goals {}:{}, \
          points share {:.0} % [{:.0}, {:.0}] (95 % Wilson)",
         player.describe(),
-        100.0 * points / f64::from(matches),
+        t.wins,
+        t.draws,
+        t.losses,
+        t.scored,
+        t.let_in,
+        100.0 * t.points / f64::from(matches),
         100.0 * lo,
         100.0 * hi
     ))

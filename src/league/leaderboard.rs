@@ -12,6 +12,7 @@ use serde::Serialize;
 use super::ratings::{Game, fit, intervals};
 use super::round_robin::LeagueDir;
 use crate::files::write_atomic;
+use crate::play::matches::Tally;
 use crate::play::metrics::wilson_points;
 use crate::png::png;
 
@@ -85,47 +86,30 @@ impl Leaderboard {
             .collect();
         let ratings = fit(n, &games, anchor);
         let ci = intervals(n, &games, anchor, RESAMPLES, league.league.seed);
-        let mut standings: Vec<Standing> = (0..n)
-            .map(|i| Standing {
-                agent: names[i].clone(),
-                rating: ratings[i],
-                ci95: ci[i],
-                matches: 0,
-                wins: 0,
-                draws: 0,
-                losses: 0,
-                goal_difference: 0,
-            })
-            .collect();
-        let mut points = vec![vec![(0.0f64, 0u32); n]; n];
+        // Each agent's matches, and each ordered pair's (row agent's side).
+        let mut tallies = vec![Tally::default(); n];
+        let mut pairs = vec![vec![Tally::default(); n]; n];
         for &(y, b, r) in &played {
-            let p = r.yellow_points();
-            for (me, other, mine, gd) in [
-                (
-                    y,
-                    b,
-                    p,
-                    i64::from(r.yellow_goals) - i64::from(r.black_goals),
-                ),
-                (
-                    b,
-                    y,
-                    1.0 - p,
-                    i64::from(r.black_goals) - i64::from(r.yellow_goals),
-                ),
-            ] {
-                let s = &mut standings[me];
-                s.matches += 1;
-                s.goal_difference += gd;
-                match mine {
-                    1.0 => s.wins += 1,
-                    0.0 => s.losses += 1,
-                    _ => s.draws += 1,
-                }
-                points[me][other].0 += mine;
-                points[me][other].1 += 1;
+            for (me, other, yellow) in [(y, b, true), (b, y, false)] {
+                tallies[me].add(r.side(yellow));
+                pairs[me][other].add(r.side(yellow));
             }
         }
+        let standings: Vec<Standing> = (0..n)
+            .map(|i| {
+                let t = &tallies[i];
+                Standing {
+                    agent: names[i].clone(),
+                    rating: ratings[i],
+                    ci95: ci[i],
+                    matches: t.matches,
+                    wins: t.wins,
+                    draws: t.draws,
+                    losses: t.losses,
+                    goal_difference: t.goal_difference(),
+                }
+            })
+            .collect();
         let mut order: Vec<usize> = (0..n).collect();
         order.sort_by(|&a, &b| ratings[b].total_cmp(&ratings[a]).then(a.cmp(&b)));
         let matrix = order
@@ -134,11 +118,12 @@ impl Leaderboard {
                 order
                     .iter()
                     .map(|&j| {
-                        let (p, m) = points[i][j];
-                        (i != j && m > 0).then(|| Cell {
-                            matches: m,
-                            win_rate: p / f64::from(m),
-                            ci95: wilson_points(p, f64::from(m)).ci95,
+                        let t = &pairs[i][j];
+                        let m = f64::from(t.matches);
+                        (i != j && t.matches > 0).then(|| Cell {
+                            matches: t.matches,
+                            win_rate: t.points / m,
+                            ci95: wilson_points(t.points, m).ci95,
                         })
                     })
                     .collect()

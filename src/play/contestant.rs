@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 
 use super::evaluation::OwnedPolicy;
 use super::scripted::ScriptedPolicy;
-use crate::agents::{build_agent, device};
+use crate::agents::load_agent;
 use crate::config::{Checkpoint, RunConfig, TestActions};
 
 /// One side's player.
@@ -112,12 +112,7 @@ impl Contestant {
             } => {
                 let config = RunConfig::load_run(dir).map_err(|e| e.to_string())?;
                 fits(&config.env, table).map_err(|why| format!("{}: {why}", dir.display()))?;
-                let device = device(&config).map_err(|e| e.to_string())?;
-                let mut agent = build_agent(&config, &device);
-                let networks = dir.join(checkpoint.name());
-                agent
-                    .load(&networks)
-                    .map_err(|e| format!("{}: {e}", networks.display()))?;
+                let mut agent = load_agent(&config, &dir.join(checkpoint.name()))?;
                 Ok(match actions {
                     TestActions::Deterministic => {
                         Box::new(move |obs: &[f32]| agent.act(obs, ActMode::Deterministic))

@@ -82,11 +82,76 @@ pub struct MatchResult {
 impl MatchResult {
     /// Yellow's points: 1 for a win, 0.5 for a draw, 0 for a loss.
     pub fn yellow_points(&self) -> f64 {
-        match self.yellow_goals.cmp(&self.black_goals) {
+        self.side(true).points
+    }
+
+    /// The match as one side saw it (`yellow`: yellow's side, else black's).
+    pub fn side(&self, yellow: bool) -> SideResult {
+        let (scored, let_in) = if yellow {
+            (self.yellow_goals, self.black_goals)
+        } else {
+            (self.black_goals, self.yellow_goals)
+        };
+        let points = match scored.cmp(&let_in) {
             std::cmp::Ordering::Greater => 1.0,
             std::cmp::Ordering::Equal => 0.5,
             std::cmp::Ordering::Less => 0.0,
+        };
+        SideResult {
+            scored,
+            let_in,
+            points,
         }
+    }
+}
+
+/// One side's view of a match.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SideResult {
+    /// Goals it scored.
+    pub scored: u32,
+    /// Goals it let in.
+    pub let_in: u32,
+    /// Its points: 1 for a win, 0.5 for a draw, 0 for a loss.
+    pub points: f64,
+}
+
+/// One side's matches added up.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Tally {
+    /// Matches played.
+    pub matches: u32,
+    /// Wins.
+    pub wins: u32,
+    /// Draws.
+    pub draws: u32,
+    /// Losses.
+    pub losses: u32,
+    /// Goals scored.
+    pub scored: u64,
+    /// Goals let in.
+    pub let_in: u64,
+    /// Points: a win 1, a draw 0.5.
+    pub points: f64,
+}
+
+impl Tally {
+    /// Adds one match as the side saw it.
+    pub fn add(&mut self, s: SideResult) {
+        self.matches += 1;
+        self.scored += u64::from(s.scored);
+        self.let_in += u64::from(s.let_in);
+        self.points += s.points;
+        match s.scored.cmp(&s.let_in) {
+            std::cmp::Ordering::Greater => self.wins += 1,
+            std::cmp::Ordering::Equal => self.draws += 1,
+            std::cmp::Ordering::Less => self.losses += 1,
+        }
+    }
+
+    /// Goals scored minus goals let in.
+    pub fn goal_difference(&self) -> i64 {
+        self.scored as i64 - self.let_in as i64
     }
 }
 

@@ -5,7 +5,7 @@ use super::contestant::Contestant;
 use super::evaluation::{Episodes, PlayedEpisode, play_agent, write_test};
 use super::metrics::TestMetrics;
 use super::scripted::{Baseline, ScriptedPolicy};
-use crate::agents::{build_agent, device};
+use crate::agents::load_agent;
 use crate::config::{Checkpoint, RunConfig, TestActions};
 use foosball_env::seeding::TEST_ENVS;
 use foosball_env::{FoosballConfig, Preset};
@@ -152,11 +152,7 @@ impl Player {
                 checkpoint,
                 actions,
             } => {
-                let device = device(config).map_err(|e| e.to_string())?;
-                let mut agent = build_agent(config, &device);
-                agent
-                    .load(&dir.join(checkpoint.name()))
-                    .map_err(|e| e.to_string())?;
+                let mut agent = load_agent(config, &dir.join(checkpoint.name()))?;
                 let episodes = Episodes {
                     env: &config.env,
                     seed: config.protocol.seed,
@@ -170,20 +166,6 @@ impl Player {
         }
     }
 
-    /// Plays `episodes` test episodes and writes the test files into `dir` (with
-    /// `baseline.toml` for a scripted policy).
-    pub fn test(&self, episodes: u32, dir: &Path) -> Result<TestMetrics, String> {
-        match self {
-            Player::Networks { .. } => {
-                let played = self.play(episodes, true)?;
-                write_test(dir, &played).map_err(|e| e.to_string())
-            }
-            Player::Scripted(b) => b.test(episodes, dir, true).map_err(|e| e.to_string()),
-        }
-    }
-}
-
-impl Player {
     /// It as one side of a two-sided match.
     pub fn contestant(&self) -> Contestant {
         match self {
@@ -198,6 +180,18 @@ impl Player {
                 actions: *actions,
             },
             Player::Scripted(b) => Contestant::Scripted(b.policy),
+        }
+    }
+
+    /// Plays `episodes` test episodes and writes the test files into `dir` (with
+    /// `baseline.toml` for a scripted policy).
+    pub fn test(&self, episodes: u32, dir: &Path) -> Result<TestMetrics, String> {
+        match self {
+            Player::Networks { .. } => {
+                let played = self.play(episodes, true)?;
+                write_test(dir, &played).map_err(|e| e.to_string())
+            }
+            Player::Scripted(b) => b.test(episodes, dir, true).map_err(|e| e.to_string()),
         }
     }
 }

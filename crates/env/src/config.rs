@@ -410,8 +410,9 @@ impl<'de> Deserialize<'de> for FoosballConfig {
     }
 }
 
-/// Writes `top` over `base`, table by table (values that are not tables replace).
-fn overlay(base: &mut toml::Table, top: toml::Table) {
+/// Writes `top` over `base`, table by table (values that are not tables replace): how a
+/// configuration's keys are laid over its preset's, and how a caller layers overrides.
+pub fn overlay(base: &mut toml::Table, top: toml::Table) {
     for (key, value) in top {
         match (base.get_mut(&key), value) {
             (Some(toml::Value::Table(b)), toml::Value::Table(t)) => overlay(b, t),

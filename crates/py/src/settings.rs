@@ -9,6 +9,7 @@
 use std::path::Path;
 
 use foosball_env::FoosballConfig;
+use foosball_env::config::overlay;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use serde::Deserialize;
@@ -80,12 +81,9 @@ fn insert_dotted(table: &mut Table, key: &str, value: Value) -> PyResult<()> {
         }
         walked.push_str(part);
         if parts.peek().is_none() {
-            match (at.get_mut(part), value) {
-                (Some(Value::Table(old)), Value::Table(new)) => merge(old, new),
-                (_, value) => {
-                    at.insert(part.into(), value);
-                }
-            }
+            let mut top = Table::new();
+            top.insert(part.into(), value);
+            overlay(at, top);
             return Ok(());
         }
         let next = at.entry(part).or_insert_with(|| Value::Table(Table::new()));
@@ -94,18 +92,6 @@ fn insert_dotted(table: &mut Table, key: &str, value: Value) -> PyResult<()> {
             .ok_or_else(|| ConfigError::new_err(format!("`{walked}` is a value, not a section")))?;
     }
     Ok(())
-}
-
-/// `new` over `old`, section by section.
-fn merge(old: &mut Table, new: Table) {
-    for (k, v) in new {
-        match (old.get_mut(&k), v) {
-            (Some(Value::Table(o)), Value::Table(n)) => merge(o, n),
-            (_, v) => {
-                old.insert(k, v);
-            }
-        }
-    }
 }
 
 /// A Python value as TOML: bool, int, float, str, list/tuple, dict (numpy scalars too).

@@ -43,8 +43,7 @@ class FoosballEnv(gym.Env):
         render_scale: float = 4.0,
         **overrides: Any,
     ) -> None:
-        if render_mode not in (None, "rgb_array"):
-            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        _check_render_mode(render_mode)
         self._table = Table(preset, None if config is None else os.fspath(config), overrides)
         self.render_mode = render_mode
         self.render_scale = float(render_scale)
@@ -97,3 +96,9 @@ def _check_seed(seed) -> None:
     """Refuses a seed the Rust table cannot take (a u64)."""
     if seed is not None and not (isinstance(seed, (int, np.integer)) and 0 <= seed < 2**64):
         raise ValueError(f"seed must be an integer in [0, 2**64), got {seed!r}")
+
+
+def _check_render_mode(render_mode) -> None:
+    """Refuses a render mode other than None or "rgb_array"."""
+    if render_mode not in (None, "rgb_array"):
+        raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")

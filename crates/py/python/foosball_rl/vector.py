@@ -11,7 +11,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from foosball_rl._core import ActionError, VecTable
-from foosball_rl.env import _check_seed
+from foosball_rl.env import _check_render_mode, _check_seed
 
 # Per-step info keys, each a [num_envs] array.
 _STEP_KEYS = ("goal_distance", "ball_speed", "steps", "in_goal", "in_own_goal", "scored", "conceded")
@@ -41,8 +41,7 @@ class FoosballVectorEnv(VectorEnv):
         render_scale: float = 4.0,
         **overrides: Any,
     ) -> None:
-        if render_mode not in (None, "rgb_array"):
-            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        _check_render_mode(render_mode)
         self._tables = VecTable(
             num_envs, threads, preset, None if config is None else os.fspath(config), overrides
         )
