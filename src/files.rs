@@ -33,6 +33,14 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), RunFileError> {
     foosball_nets::atomic_file::write_atomic(path, bytes).map_err(RunFileError::at(path))
 }
 
+/// Removes the file at `path`, if there is one.
+pub fn remove_file(path: &Path) -> Result<(), RunFileError> {
+    match std::fs::remove_file(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(RunFileError::at(path)(e)),
+        _ => Ok(()),
+    }
+}
+
 /// Appends lines to a CSV file, writing the header first when the file is new or empty;
 /// no lines, no I/O.
 pub fn append_csv(path: &Path, header: &str, lines: &[String]) -> Result<(), RunFileError> {

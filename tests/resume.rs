@@ -9,7 +9,7 @@ use foosball_rl::config::RunConfig;
 use foosball_rl::nets::Snapshot;
 use foosball_rl::run::train::{Event, Start, train};
 use std::path::Path;
-use std::process::Command;
+use std::process::{Child, Command, Stdio};
 
 fn config(algo: &str, epochs: u32, steps_per_epoch: u64) -> RunConfig {
     let text = tiny_config_text(algo, epochs, steps_per_epoch);
@@ -138,24 +138,26 @@ fn resuming_without_a_checkpoint_is_refused() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-#[test]
-fn train_killed_by_a_signal_resumes_from_its_checkpoint() {
-    let dir = scratch("resume-kill");
+/// Trains a tiny SAC run with the `train` binary straight through, and again stopped by
+/// `stop` once its first checkpoint is written, then resumed with `train --resume`: the
+/// two end the same. Returns what the stopped process wrote on stderr.
+fn train_stopped_then_resumed(name: &str, stop: impl FnOnce(&mut Child, &Path)) -> String {
+    let dir = scratch(name);
     let config_path = dir.join("sac.toml");
     std::fs::write(&config_path, tiny_config_text("sac", 3, 1500)).unwrap();
     let train_bin = env!("CARGO_BIN_EXE_train");
-    let (straight, killed) = (dir.join("straight"), dir.join("killed"));
+    let (straight, stopped) = (dir.join("straight"), dir.join("stopped"));
     let args = |out: &Path| {
         let mut cmd = Command::new(train_bin);
         cmd.args(["--config", config_path.to_str().unwrap()])
             .args(["--out", out.to_str().unwrap()])
-            .stdout(std::process::Stdio::null());
+            .stdout(Stdio::null());
         cmd
     };
     assert!(args(&straight).status().unwrap().success());
 
-    let mut child = args(&killed).spawn().unwrap();
-    let state = killed.join("checkpoint/state.bin");
+    let mut child = args(&stopped).stderr(Stdio::piped()).spawn().unwrap();
+    let state = stopped.join("checkpoint/state.bin");
     while !state.exists() {
         assert!(
             child.try_wait().unwrap().is_none(),
@@ -163,20 +165,65 @@ fn train_killed_by_a_signal_resumes_from_its_checkpoint() {
         );
         std::thread::sleep(std::time::Duration::from_millis(5));
     }
-    child.kill().unwrap();
-    child.wait().unwrap();
-    assert!(!killed.join("test").exists(), "killed after the end");
-    let o = Command::new(train_bin)
-        .args(["--resume", killed.to_str().unwrap()])
+    stop(&mut child, &stopped);
+    let o = child.wait_with_output().unwrap();
+    assert!(!stopped.join("test").exists(), "stopped after the end");
+    let o2 = Command::new(train_bin)
+        .args(["--resume", stopped.to_str().unwrap()])
         .output()
         .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    assert_same_run(&straight, &killed, "killed sac");
+    assert!(
+        o2.status.success(),
+        "{}",
+        String::from_utf8_lossy(&o2.stderr)
+    );
+    assert_same_run(&straight, &stopped, name);
 
-    let o = Command::new(train_bin)
-        .args(["--resume", killed.to_str().unwrap(), "--seed", "4"])
+    let o2 = Command::new(train_bin)
+        .args(["--resume", stopped.to_str().unwrap(), "--seed", "4"])
         .output()
         .unwrap();
-    assert!(!o.status.success(), "--resume takes its run's own settings");
+    assert!(
+        !o2.status.success(),
+        "--resume takes its run's own settings"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn train_killed_by_a_signal_resumes_from_its_checkpoint() {
+    train_stopped_then_resumed("resume-kill", |child, _| child.kill().unwrap());
+}
+
+/// SIGTERM (what SLURM sends before a kill) stops the run between two env steps with a
+/// message that says where it resumes; while it runs, a second process is refused the
+/// run directory by name.
+#[test]
+fn train_stopped_by_sigterm_says_so_and_resumes_from_its_checkpoint() {
+    let stderr = train_stopped_then_resumed("resume-term", |child, run| {
+        let o = Command::new(env!("CARGO_BIN_EXE_train"))
+            .args(["--resume", run.to_str().unwrap()])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(
+            err.contains("another process is training this run")
+                && err.contains(&format!("pid {}", child.id())),
+            "{err}"
+        );
+        let kill = Command::new("kill")
+            .args(["-TERM", &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(kill.success());
+        let status = child.wait().unwrap();
+        assert_eq!(status.code(), Some(2));
+    });
+    assert!(
+        stderr.contains("stopped by a signal at env step")
+            && stderr.contains("resumes from the checkpoint of epoch"),
+        "{stderr}"
+    );
 }

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{scratch, tiny_config_text};
+use common::{TINY_SWEEP, scratch, sweep_results, tiny_config_text};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
@@ -19,16 +19,6 @@ fn configs(dir: &Path) -> PathBuf {
     }
     configs
 }
-
-/// The tiny sweep: PPO and SAC, seeds 0 and 1, two baselines.
-const TINY: [&str; 6] = [
-    "--algos",
-    "ppo,sac",
-    "--seeds",
-    "0..2",
-    "--baselines",
-    "shooter,zero",
-];
 
 fn sweep_command(configs: &Path, out: &Path, extra: &[&str]) -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_sweep"));
@@ -52,36 +42,12 @@ fn run(mut c: Command) -> Output {
     o
 }
 
-/// The files that define a run's results (logs without timings, metrics, networks).
-fn results(out: &Path) -> Vec<(String, Vec<u8>)> {
-    let mut files = Vec::new();
-    for run in ["ppo-seed0", "ppo-seed1", "sac-seed0", "sac-seed1"] {
-        for f in [
-            "episodes.csv",
-            "evaluations.csv",
-            "test/metrics.json",
-            "test/trajectories.bin",
-        ] {
-            let path = out.join(run).join(f);
-            let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-            files.push((format!("{run}/{f}"), bytes));
-        }
-    }
-    for f in [
-        "shooter-reference/metrics.json",
-        "zero-reference/metrics.json",
-    ] {
-        files.push((f.into(), std::fs::read(out.join(f)).unwrap()));
-    }
-    files
-}
-
 #[test]
 fn a_killed_sweep_run_again_ends_as_an_uninterrupted_one() {
     let dir = scratch("sweep");
     let configs = configs(&dir);
     let whole = dir.join("whole");
-    let o = run(sweep_command(&configs, &whole, &TINY));
+    let o = run(sweep_command(&configs, &whole, &TINY_SWEEP));
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(
         text.contains("4 runs (0 finished, 4 to train or resume)"),
@@ -99,7 +65,7 @@ fn a_killed_sweep_run_again_ends_as_an_uninterrupted_one() {
 
     // Kill a second sweep once its first checkpoint is written, then run it again.
     let killed = dir.join("killed");
-    let mut child = sweep_command(&configs, &killed, &TINY)
+    let mut child = sweep_command(&configs, &killed, &TINY_SWEEP)
         .stdout(Stdio::null())
         .stderr(Stdio::null())
         .spawn()
@@ -116,13 +82,13 @@ fn a_killed_sweep_run_again_ends_as_an_uninterrupted_one() {
     }
     child.kill().unwrap();
     child.wait().unwrap();
-    let o = run(sweep_command(&configs, &killed, &TINY));
+    let o = run(sweep_command(&configs, &killed, &TINY_SWEEP));
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(text.contains("to train or resume"), "{text}");
-    assert_eq!(results(&whole), results(&killed));
+    assert_eq!(sweep_results(&whole), sweep_results(&killed));
 
     // Once finished, the same command trains nothing.
-    let o = run(sweep_command(&configs, &killed, &TINY));
+    let o = run(sweep_command(&configs, &killed, &TINY_SWEEP));
     assert!(
         String::from_utf8_lossy(&o.stdout).contains("4 runs (4 finished, 0 to train or resume)")
     );

@@ -1,6 +1,10 @@
 //! `sweep`: trains algorithms x seeds into one directory, several runs at a time, tests
 //! the scripted baselines on the same table, and writes the seed-aggregated report.
 //! Running the same command again resumes unfinished runs and skips finished ones.
+//!
+//! `--slurm` submits the same sweep as a SLURM job array instead (one task per run and
+//! baseline, then the report); `--status` tells where each task stands; `--task I` and
+//! `--report-only` are what the array's tasks and the report job run.
 
 use clap::Parser;
 use foosball_rl::cli::finish;
@@ -8,10 +12,16 @@ use foosball_rl::config::{Algo, Overrides, RunConfig};
 use foosball_rl::env::{FoosballConfig, Preset};
 use foosball_rl::play::scripted::ScriptedPolicy;
 use foosball_rl::report::write_report;
+use foosball_rl::run::interrupt;
+use foosball_rl::run::lock::RunLock;
 use foosball_rl::run::train::{Event, Progress};
-use foosball_rl::sweep::{SweepRun, SweepSpec, baseline, parse_seeds, train_run};
+use foosball_rl::sweep::slurm::{
+    SLURM_DIR, SlurmOptions, Submission, Submissions, queued, report_script, submit, tasks_script,
+};
+use foosball_rl::sweep::status::status;
+use foosball_rl::sweep::{SweepRun, SweepSpec, baseline, parse_seeds, run_task, train_run};
 use indicatif::{FormattedDuration, ProgressBar, ProgressStyle};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -66,6 +76,46 @@ struct Args {
     /// Replace a sweep of another configuration in `--out`.
     #[arg(long)]
     force: bool,
+
+    /// Submit the sweep to SLURM as a job array (one task per unfinished run or
+    /// baseline, then the report after it) instead of training here. Run again, it
+    /// submits only what is neither finished nor queued nor running.
+    #[arg(long, help_heading = "SLURM")]
+    slurm: bool,
+    /// Print the batch scripts `--slurm` would submit, and submit nothing.
+    #[arg(long, requires = "slurm", help_heading = "SLURM")]
+    dry_run: bool,
+    /// Partition of the jobs (`#SBATCH --partition`).
+    #[arg(long, requires = "slurm", help_heading = "SLURM")]
+    partition: Option<String>,
+    /// Account of the jobs (`#SBATCH --account`).
+    #[arg(long, requires = "slurm", help_heading = "SLURM")]
+    account: Option<String>,
+    /// Time limit of each task, e.g. `12:00:00` (`#SBATCH --time`).
+    #[arg(long, requires = "slurm", help_heading = "SLURM")]
+    time: Option<String>,
+    /// CPUs of each task, which its run trains with (default: --threads-per-run).
+    #[arg(long, requires = "slurm", help_heading = "SLURM")]
+    cpus_per_task: Option<usize>,
+    /// A further `#SBATCH` line for the tasks, e.g. `--sbatch=--qos=long` (repeatable).
+    #[arg(
+        long = "sbatch",
+        value_name = "LINE",
+        requires = "slurm",
+        help_heading = "SLURM"
+    )]
+    sbatch: Vec<String>,
+    /// Print where each run and baseline of the sweep in --out stands (and, for a
+    /// submitted sweep, what SLURM says of its tasks).
+    #[arg(long, conflicts_with_all = ["slurm", "task", "report_only"], help_heading = "SLURM")]
+    status: bool,
+    /// Do task I of the sweep in --out alone (its runs in order, then its baselines):
+    /// what each SLURM array task runs.
+    #[arg(long, value_name = "I", conflicts_with_all = ["slurm", "report_only"], help_heading = "SLURM")]
+    task: Option<usize>,
+    /// Write the report of the sweep in --out from its finished runs (the report job).
+    #[arg(long, conflicts_with = "slurm", help_heading = "SLURM")]
+    report_only: bool,
 }
 
 fn spec(args: &Args) -> Result<SweepSpec, String> {
@@ -251,6 +301,159 @@ fn run(args: &Args) -> Result<String, String> {
     Ok(format!("{md}\nreport in {}", report.display()))
 }
 
+/// `--slurm`: writes the batch scripts and submits what is left to do.
+fn submit_sweep(args: &Args) -> Result<String, String> {
+    let spec = spec(args)?;
+    let out = std::path::absolute(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
+    let runs = if args.dry_run {
+        spec.check(&out, args.force)
+    } else {
+        std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
+        spec.open(&out, args.force)
+    }
+    .map_err(|e| e.to_string())?;
+    let tasks = spec.with_baselines(runs);
+    let submissions = Submissions::read(&out).map_err(|e| e.to_string())?;
+    let queue = if submissions.submissions.is_empty() {
+        Default::default()
+    } else {
+        queued(&submissions).map_err(|e| e.to_string())?
+    };
+    let (mut todo, mut finished, mut busy) = (Vec::new(), 0, 0);
+    for (i, task) in tasks.iter().enumerate() {
+        if task.finished(&spec, &out) {
+            finished += 1;
+        } else if queue.contains_key(&i) || RunLock::holder(&task.dir(&spec, &out)).is_some() {
+            busy += 1;
+        } else {
+            todo.push(i);
+        }
+    }
+    let exe = std::env::current_exe().map_err(|e| format!("the sweep binary's path: {e}"))?;
+    let workdir = std::env::current_dir().map_err(|e| format!("the working directory: {e}"))?;
+    let options = SlurmOptions {
+        partition: args.partition.clone(),
+        account: args.account.clone(),
+        time: args.time.clone(),
+        cpus_per_task: args.cpus_per_task.unwrap_or(args.threads_per_run).max(1),
+        extra: args.sbatch.clone(),
+    };
+    let state = format!(
+        "{} tasks: {finished} finished, {busy} queued or running, {} to submit",
+        tasks.len(),
+        todo.len()
+    );
+    if todo.is_empty() {
+        return Ok(format!(
+            "{state}; nothing submitted (`sweep --status --out {}`)",
+            out.display()
+        ));
+    }
+    let scripts = out.join(SLURM_DIR);
+    let tasks_file = scripts.join("tasks.sbatch");
+    let report_file = scripts.join("report.sbatch");
+    let tasks_text = tasks_script(&exe, &out, &workdir, &todo, &options);
+    let report_text = report_script(&exe, &out, &workdir, &options);
+    if args.dry_run {
+        return Ok(format!(
+            "# {state}\n# {} \n{tasks_text}\n# {} (submitted with --dependency=afterany:<array job>)\n{report_text}",
+            tasks_file.display(),
+            report_file.display()
+        ));
+    }
+    for (path, text) in [(&tasks_file, &tasks_text), (&report_file, &report_text)] {
+        foosball_rl::files::write_atomic(path, text.as_bytes()).map_err(|e| e.to_string())?;
+    }
+    let array_job = submit(&tasks_file, None).map_err(|e| e.to_string())?;
+    let report_job = submit(&report_file, Some(&array_job)).map_err(|e| e.to_string())?;
+    let names: Vec<String> = todo
+        .iter()
+        .map(|&i| format!("{i}:{}", tasks[i].name(&spec)))
+        .collect();
+    Submissions::push(
+        &out,
+        Submission {
+            array_job: array_job.clone(),
+            tasks: todo,
+            report_job: report_job.clone(),
+        },
+    )
+    .map_err(|e| e.to_string())?;
+    Ok(format!(
+        "{state}\nsubmitted array job {array_job} (tasks {}), report job {report_job} after it\n\
+         follow it with `sweep --status --out {}`; logs in {}",
+        names.join(" "),
+        out.display(),
+        scripts.display()
+    ))
+}
+
+/// `--status`: a line per task.
+fn print_status(out: &Path) -> Result<String, String> {
+    let lines = status(out, true).map_err(|e| e.to_string())?;
+    Ok(lines
+        .iter()
+        .map(|l| l.line())
+        .collect::<Vec<_>>()
+        .join("\n"))
+}
+
+/// `--task I`: one task, with a line per epoch and evaluation (batch logs have no bar).
+fn one_task(out: &Path, index: usize, threads: usize) -> Result<String, String> {
+    let (name, metrics) = run_task(out, index, threads, |p| match p.event {
+        Event::Started => println!("[{}/{}] started", p.env_steps, p.total_steps),
+        Event::Checkpoint(epoch) => {
+            println!(
+                "[{}/{}] epoch {epoch} done, checkpoint written",
+                p.env_steps, p.total_steps
+            )
+        }
+        Event::Evaluation {
+            mean_return,
+            score_rate,
+        } => println!(
+            "[{}/{}] eval return {mean_return:.1} score rate {score_rate:.2}",
+            p.env_steps, p.total_steps
+        ),
+        Event::Test => println!("testing the final networks"),
+        Event::Window(_) | Event::Tick(_) => {}
+    })?;
+    let mut text = match metrics {
+        Some(m) => format!("{name}: finished\n{}", m.to_markdown()),
+        None => format!("{name}: had finished already"),
+    };
+    // The last task to finish writes the report, so that it is whole even when a task
+    // was requeued after the report job had run.
+    let spec = SweepSpec::load(out).map_err(|e| e.to_string())?;
+    let tasks = spec.tasks(out).map_err(|e| e.to_string())?;
+    if tasks.iter().all(|t| t.finished(&spec, out)) {
+        text = format!("{text}\nall tasks finished\n{}", report_only(out)?);
+    }
+    Ok(text)
+}
+
+/// `--report-only`: the report of the finished runs in `out`.
+fn report_only(out: &Path) -> Result<String, String> {
+    SweepSpec::load(out).map_err(|e| e.to_string())?;
+    let report = out.join("report");
+    let md = write_report(&[out.to_path_buf()], &report).map_err(|e| e.to_string())?;
+    Ok(format!("{md}\nreport in {}", report.display()))
+}
+
 fn main() -> ExitCode {
-    finish(run(&Args::parse()))
+    let args = Args::parse();
+    if let Err(e) = interrupt::install() {
+        return finish(Err(format!("signal handlers: {e}")));
+    }
+    finish(if args.status {
+        print_status(&args.out)
+    } else if let Some(index) = args.task {
+        one_task(&args.out, index, args.threads_per_run)
+    } else if args.report_only {
+        report_only(&args.out)
+    } else if args.slurm {
+        submit_sweep(&args)
+    } else {
+        run(&args)
+    })
 }

@@ -5,8 +5,8 @@
 use clap::Parser;
 use foosball_rl::cli::finish;
 use foosball_rl::config::{Algo, Overrides, RunConfig};
-use foosball_rl::run::budget;
 use foosball_rl::run::train::{Event, Progress, Start, train};
+use foosball_rl::run::{budget, interrupt};
 use indicatif::{FormattedDuration, ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -168,6 +168,9 @@ fn resumed(dir: &Path, threads: Option<usize>) -> Result<RunConfig, String> {
 
 fn main() -> ExitCode {
     let args = Args::parse();
+    if let Err(e) = interrupt::install() {
+        return finish(Err(format!("signal handlers: {e}")));
+    }
     let available = budget::available_bytes();
     let fits = |c: RunConfig| budget::check(&c, available).map(|()| c);
     let setup = match &args.resume {

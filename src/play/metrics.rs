@@ -10,6 +10,7 @@
 use foosball_env::EndReason;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
+use std::path::Path;
 
 /// z for a two-sided 95 % interval.
 const Z95: f64 = 1.959_963_984_540_054;
@@ -134,6 +135,14 @@ pub fn ratio_estimate(y: &[f64], m: &[f64]) -> Estimate {
 }
 
 impl TestMetrics {
+    /// The metrics a test wrote to `path` (`metrics.json`); the error says what is wrong
+    /// with the file (the caller names it).
+    pub fn read(path: &Path) -> Result<Self, String> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("{e} (has the run finished its test?)"))?;
+        serde_json::from_str(&text).map_err(|e| e.to_string())
+    }
+
     /// The metrics of `episodes` (at least one).
     pub fn from_episodes(episodes: &[EpisodeSummary]) -> Self {
         assert!(!episodes.is_empty(), "metrics need at least one episode");

@@ -70,9 +70,7 @@ pub struct RunResults {
 }
 
 fn read_metrics(path: &Path) -> Result<TestMetrics, ReportError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| error(path, format!("{e} (has the run finished its test?)")))?;
-    serde_json::from_str(&text).map_err(|e| error(path, e))
+    TestMetrics::read(path).map_err(|e| error(path, e))
 }
 
 /// `(env_step, mean_return, score_rate)` of every evaluation in `path`.

@@ -16,6 +16,10 @@ use std::path::{Path, PathBuf};
 /// The file of the non-network state inside a checkpoint directory.
 pub const STATE_FILE: &str = "state.bin";
 
+/// A small file inside a checkpoint directory with its completed epochs, for status
+/// displays that should not read the whole state (a replay buffer can be gigabytes).
+pub const EPOCHS_FILE: &str = "epochs.txt";
+
 /// Where the training loop stands at a checkpoint.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LoopState {
@@ -87,6 +91,8 @@ pub fn write(run_dir: &Path, agent: &dyn Agent, state: &LoopState) -> Result<(),
             path: tmp.clone(),
             source,
         })?;
+    let epochs = tmp.join(EPOCHS_FILE);
+    std::fs::write(&epochs, format!("{}\n", state.epoch)).map_err(RunFileError::at(&epochs))?;
     if dst.exists() {
         remove_dir(&old)?;
         std::fs::rename(&dst, &old).map_err(RunFileError::at(&dst))?;
@@ -103,6 +109,16 @@ pub fn find(run_dir: &Path) -> Option<PathBuf> {
         .iter()
         .map(|name| run_dir.join(name))
         .find(|dir| dir.join(STATE_FILE).is_file())
+}
+
+/// The completed epochs of the checkpoint in `dir` (from [`EPOCHS_FILE`]; `None` for a
+/// checkpoint written before that file existed).
+pub fn epochs(dir: &Path) -> Option<u64> {
+    std::fs::read_to_string(dir.join(EPOCHS_FILE))
+        .ok()?
+        .trim()
+        .parse()
+        .ok()
 }
 
 /// Restores `agent` from the checkpoint in `dir` and returns the loop's state.

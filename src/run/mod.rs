@@ -16,6 +16,7 @@
 //! RUN/tensorboard/         TensorBoard event files
 //! RUN/last/, RUN/best/     networks (Burn records) after the last epoch / best evaluation
 //! RUN/checkpoint/          the resumable state of the last epoch end ([`checkpoint`])
+//! RUN/lock                 held by the process training the run ([`lock`])
 //! RUN/test/metrics.json    the paper's five metrics with 95 % intervals
 //! RUN/test/metrics.md      the same as a markdown table
 //! RUN/test/trajectories.bin  every test episode's steps ([`crate::play::trajectories`])
@@ -24,9 +25,13 @@
 //! - [`train`]: the training loop, its events and its error;
 //! - [`checkpoint`]: resumable checkpoints at epoch ends;
 //! - [`log`]: training logs (CSV and TensorBoard);
-//! - [`budget`]: memory and time a run will need, told before it starts.
+//! - [`budget`]: memory and time a run will need, told before it starts;
+//! - [`lock`]: one process at a time trains a run directory;
+//! - [`interrupt`]: SIGTERM and SIGINT stop a run between two env steps.
 
 pub mod budget;
 pub mod checkpoint;
+pub mod interrupt;
+pub mod lock;
 pub mod log;
 pub mod train;

@@ -3,6 +3,8 @@
 //! (resumable), then the test phase.
 
 use super::checkpoint::{self, CheckpointError, LoopState};
+use super::interrupt;
+use super::lock::{LockError, RunLock};
 use super::log::{CSV_FILES, RunLog, Speed};
 use crate::agents::{build_agent, device};
 use crate::config::{Checkpoint, RunConfig, TestActions};
@@ -49,6 +51,21 @@ pub enum TrainError {
     /// `--resume` on a directory without a checkpoint.
     #[error("{0}: no checkpoint to resume from (none is written before the first epoch ends)")]
     NoCheckpoint(PathBuf),
+    /// Another process trains the run, or its lock file could not be written.
+    #[error(transparent)]
+    Locked(#[from] LockError),
+    /// A stop signal came ([`interrupt`]); the run resumes from its last checkpoint.
+    #[error(
+        "{dir}: stopped by a signal at env step {env_steps}; resumes from {from} (`train --resume` or the same sweep again)"
+    )]
+    Interrupted {
+        /// The run directory.
+        dir: PathBuf,
+        /// Env steps done when it stopped.
+        env_steps: u64,
+        /// Where a resume starts.
+        from: String,
+    },
 }
 
 impl From<VecEnvError> for TrainError {
@@ -148,6 +165,10 @@ fn clear_run_dir(run_dir: &Path) -> Result<(), TrainError> {
 /// the networks (`last/`) and a checkpoint are written. `Start::Resume` goes on from the
 /// checkpoint, so a resumed run ends as the uninterrupted one would. `report` hears of
 /// every window, evaluation and checkpoint.
+///
+/// The run directory is locked for the whole call ([`RunLock`]): a second process gets
+/// [`TrainError::Locked`]. After [`interrupt::install`], a stop signal ends the loop between
+/// two env steps with [`TrainError::Interrupted`].
 pub fn train(
     config: &RunConfig,
     run_dir: &Path,
@@ -163,6 +184,7 @@ pub fn train(
         .num_threads(threads)
         .build()
         .map_err(|e| TrainError::Threads(e.to_string()))?;
+    let _lock = RunLock::acquire(run_dir)?;
     pool.install(|| {
         let device = device(config)?;
         let mut agent = build_agent(config, &device);
@@ -225,6 +247,9 @@ pub fn train(
                     log.update(m);
                 }
                 let steps = agent.env_steps();
+                if interrupt::requested() {
+                    return Err(interrupted(run_dir, steps, epoch - 1));
+                }
                 if last_tick.elapsed() >= TICK {
                     last_tick = Instant::now();
                     let seconds = started.0.elapsed().as_secs_f64();
@@ -294,6 +319,18 @@ pub fn train(
         let played = play_agent(agent.as_mut(), p.test_actions, &episodes)?;
         Ok(write_test(&run_dir.join("test"), &played)?)
     })
+}
+
+/// The error of a run stopped by a signal at `env_steps`, `epochs` epochs checkpointed.
+fn interrupted(run_dir: &Path, env_steps: u64, epochs: u64) -> TrainError {
+    TrainError::Interrupted {
+        dir: run_dir.to_path_buf(),
+        env_steps,
+        from: match epochs {
+            0 => "the start (no epoch was checkpointed)".into(),
+            k => format!("the checkpoint of epoch {k}"),
+        },
+    }
 }
 
 fn save(agent: &dyn Agent, dir: &Path) -> Result<(), TrainError> {

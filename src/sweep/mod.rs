@@ -7,6 +7,13 @@
 //! from their last checkpoint, and starts the rest; a directory holding another sweep is
 //! refused unless forced. A killed sweep loses at most the unfinished epochs of the runs
 //! then running.
+//!
+//! Each run and each baseline is a [`Task`] that one process can do alone (`sweep --task
+//! I`), which is how [`slurm`] spreads a sweep over a cluster's job array; [`status`] tells
+//! where every task stands.
+
+pub mod slurm;
+pub mod status;
 
 use crate::config::{Algo, RunConfig, migrate_legacy_keys};
 use crate::files::write_atomic;
@@ -15,6 +22,7 @@ use crate::play::scripted::{Baseline, ScriptedPolicy};
 use crate::run::checkpoint;
 use crate::run::train::{Progress, Start, TrainError, train};
 use serde::{Deserialize, Serialize};
+use slurm::SlurmError;
 use std::path::{Path, PathBuf};
 
 /// What a sweep trains: `runs` (one base configuration per algorithm) x `seeds`.
@@ -51,6 +59,69 @@ pub enum SweepError {
         /// What went wrong.
         message: String,
     },
+    /// No sweep in the directory (for `--task`, `--status`, `--report-only`).
+    #[error(
+        "{0}: no sweep here (no sweep.toml): start one with `sweep --out {0}` or `sweep --slurm --out {0}`"
+    )]
+    Missing(PathBuf),
+    /// A task index beyond the sweep's tasks.
+    #[error(
+        "--task {index}: the sweep in {out} has tasks 0 to {last} (its runs, then its baselines)"
+    )]
+    Task {
+        /// The index asked for.
+        index: usize,
+        /// The sweep directory.
+        out: PathBuf,
+        /// Its last task index.
+        last: usize,
+    },
+    /// The scheduler refused or a SLURM file failed.
+    #[error(transparent)]
+    Slurm(SlurmError),
+}
+
+/// Why the last process that trained a run stopped before the end (`RUN/stopped.txt`,
+/// written by [`train_run`], removed when the run starts again).
+pub const STOPPED_FILE: &str = "stopped.txt";
+
+/// What one process of a sweep does: train (or resume) a run, or test a baseline.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Task {
+    /// A training run.
+    Run(Box<SweepRun>),
+    /// A scripted baseline on the runs' table.
+    Baseline(ScriptedPolicy),
+}
+
+impl Task {
+    /// Its directory name inside the sweep.
+    pub fn name(&self, spec: &SweepSpec) -> String {
+        match self {
+            Task::Run(r) => SweepSpec::run_name(r.config.algo(), r.config.protocol.seed),
+            Task::Baseline(p) => format!("{}-{}", p.name(), spec.runs[0].env.preset.name()),
+        }
+    }
+
+    /// Its directory.
+    pub fn dir(&self, spec: &SweepSpec, out: &Path) -> PathBuf {
+        match self {
+            Task::Run(r) => r.dir.clone(),
+            Task::Baseline(_) => out.join(self.name(spec)),
+        }
+    }
+
+    /// Whether it has nothing left to do.
+    pub fn finished(&self, spec: &SweepSpec, out: &Path) -> bool {
+        match self {
+            Task::Run(r) => r.start.is_none(),
+            Task::Baseline(p) => {
+                let dir = self.dir(spec, out);
+                Baseline::read(&dir).is_ok_and(|b| b == baseline_record(spec, *p))
+                    && dir.join("metrics.json").is_file()
+            }
+        }
+    }
 }
 
 /// Parses `A..B` (B excluded), `a,b,c` or `a`.
@@ -95,6 +166,37 @@ impl SweepRun {
 }
 
 impl SweepSpec {
+    /// The sweep written in `out/sweep.toml`.
+    pub fn load(out: &Path) -> Result<Self, SweepError> {
+        let path = out.join("sweep.toml");
+        let text = std::fs::read_to_string(&path).map_err(|e| match e.kind() {
+            std::io::ErrorKind::NotFound => SweepError::Missing(out.to_path_buf()),
+            _ => SweepError::File {
+                path: path.clone(),
+                message: e.to_string(),
+            },
+        })?;
+        toml::from_str(&migrate_legacy_keys(&text)).map_err(|e| SweepError::File {
+            path,
+            message: e.to_string(),
+        })
+    }
+
+    /// Every task of the sweep in `out`: the runs in plan order, then the baselines; a
+    /// task's index here is its SLURM array index. A run directory holding another
+    /// configuration is refused, as by [`SweepSpec::open`].
+    pub fn tasks(&self, out: &Path) -> Result<Vec<Task>, SweepError> {
+        Ok(self.with_baselines(self.plan(out, false)?))
+    }
+
+    /// The tasks of `runs` (as planned by [`SweepSpec::open`] or [`SweepSpec::check`])
+    /// followed by the baselines, in task index order.
+    pub fn with_baselines(&self, runs: Vec<SweepRun>) -> Vec<Task> {
+        let runs = runs.into_iter().map(|r| Task::Run(Box::new(r)));
+        runs.chain(self.baselines.iter().map(|&p| Task::Baseline(p)))
+            .collect()
+    }
+
     /// The run directory name of `algo` with `seed`.
     pub fn run_name(algo: Algo, seed: u64) -> String {
         format!("{algo}-seed{seed}")
@@ -103,23 +205,23 @@ impl SweepSpec {
     /// Takes `out` for this sweep: checks that the `sweep.toml` there, if any, is this
     /// sweep's (`force` replaces another), plans every run, then writes `sweep.toml`.
     pub fn open(&self, out: &Path, force: bool) -> Result<Vec<SweepRun>, SweepError> {
+        let runs = self.check(out, force)?;
         let path = out.join("sweep.toml");
-        if let Ok(old) = std::fs::read_to_string(&path)
-            && !force
-            && toml::from_str::<SweepSpec>(&migrate_legacy_keys(&old))
-                .ok()
-                .as_ref()
-                != Some(self)
-        {
-            return Err(SweepError::Other(out.to_path_buf()));
-        }
-        let runs = self.plan(out, force)?;
         let text = toml::to_string_pretty(self).expect("a sweep always serialises");
         write_atomic(&path, text.as_bytes()).map_err(|e| SweepError::File {
             path: e.path,
             message: e.source.to_string(),
         })?;
         Ok(runs)
+    }
+
+    /// What [`SweepSpec::open`] checks and plans, writing nothing.
+    pub fn check(&self, out: &Path, force: bool) -> Result<Vec<SweepRun>, SweepError> {
+        if !force && out.join("sweep.toml").is_file() && Self::load(out).ok().as_ref() != Some(self)
+        {
+            return Err(SweepError::Other(out.to_path_buf()));
+        }
+        self.plan(out, force)
     }
 
     /// Every run in order (seed-major, so that each seed's algorithms finish together),
@@ -160,7 +262,9 @@ fn same_run(a: &RunConfig, b: &RunConfig) -> bool {
     &a == b
 }
 
-/// Trains `run` in its directory (created if needed).
+/// Trains `run` in its directory (created if needed). Why it stopped, when it stops
+/// before the end, is written to [`STOPPED_FILE`] for `sweep --status` (unless another
+/// process holds the run, whose own file that is).
 pub fn train_run(
     run: &SweepRun,
     report: impl FnMut(&Progress) + Send,
@@ -169,7 +273,66 @@ pub fn train_run(
         return Ok(None);
     };
     std::fs::create_dir_all(&run.dir).map_err(crate::files::RunFileError::at(&run.dir))?;
-    train(&run.config, &run.dir, start, report).map(Some)
+    let stopped = run.dir.join(STOPPED_FILE);
+    let result = train(&run.config, &run.dir, start, report);
+    match &result {
+        Ok(_) => crate::files::remove_file(&stopped)?,
+        Err(TrainError::Locked(_)) => {}
+        Err(e) => write_atomic(&stopped, format!("{e}\n").as_bytes())?,
+    }
+    result.map(Some)
+}
+
+/// Does task `index` of the sweep in `out` with `threads` threads per run: trains or
+/// resumes its run, or tests its baseline; a finished task does nothing. Returns the
+/// task's name and its test metrics (`None` when it had finished before).
+pub fn run_task(
+    out: &Path,
+    index: usize,
+    threads: usize,
+    report: impl FnMut(&Progress) + Send,
+) -> Result<(String, Option<TestMetrics>), String> {
+    let spec = SweepSpec::load(out).map_err(|e| e.to_string())?;
+    // sweep.toml is the truth: whoever wrote it was allowed to replace the runs there.
+    let mut tasks = spec.with_baselines(spec.plan(out, true).map_err(|e| e.to_string())?);
+    let last = tasks.len() - 1;
+    let task = tasks.get_mut(index).ok_or_else(|| {
+        SweepError::Task {
+            index,
+            out: out.to_path_buf(),
+            last,
+        }
+        .to_string()
+    })?;
+    let name = task.name(&spec);
+    if task.finished(&spec, out) {
+        return Ok((name, None));
+    }
+    match task {
+        Task::Run(run) => {
+            run.config.protocol.threads = threads;
+            train_run(run, report)
+                .map(|m| (name, m))
+                .map_err(|e| e.to_string())
+        }
+        Task::Baseline(p) => {
+            let record = baseline_record(&spec, *p);
+            let dir = out.join(&name);
+            let m = record
+                .test(spec.runs[0].protocol.test_episodes, &dir, false)
+                .map_err(|e| e.to_string())?;
+            Ok((name, Some(m)))
+        }
+    }
+}
+
+/// What a baseline of `spec` plays: `policy` on the first run's table and seed.
+fn baseline_record(spec: &SweepSpec, policy: ScriptedPolicy) -> Baseline {
+    Baseline {
+        policy,
+        seed: spec.seeds[0],
+        env: spec.runs[0].env.clone(),
+    }
 }
 
 /// Plays `policy` on `spec`'s table (the first run's `[env]`, seed and test episodes)
@@ -179,17 +342,10 @@ pub fn baseline(
     policy: ScriptedPolicy,
     out: &Path,
 ) -> Result<PathBuf, TrainError> {
-    let base = &spec.runs[0];
-    let dir = out.join(format!("{}-{}", policy.name(), base.env.preset.name()));
-    let record = Baseline {
-        policy,
-        seed: spec.seeds[0],
-        env: base.env.clone(),
-    };
-    let done =
-        Baseline::read(&dir).is_ok_and(|b| b == record && dir.join("metrics.json").is_file());
-    if !done {
-        record.test(base.protocol.test_episodes, &dir, false)?;
+    let task = Task::Baseline(policy);
+    let dir = task.dir(spec, out);
+    if !task.finished(spec, out) {
+        baseline_record(spec, policy).test(spec.runs[0].protocol.test_episodes, &dir, false)?;
     }
     Ok(dir)
 }

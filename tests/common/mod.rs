@@ -4,7 +4,7 @@
 use foosball_rl::env::geometry::BALL_RADIUS;
 use foosball_rl::env::layout::ACTION_DIM;
 use foosball_rl::env::{Env, FoosballConfig, FoosballEnv, FoosballInfo, Transition};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// The reference data folder `../shared/reference/<name>` beside the checkout, or `None`
 /// (with a note) where it is absent outside CI. Under `CI=true` it must exist.
@@ -78,4 +78,40 @@ pub fn play_out(env: &mut FoosballEnv, limit: usize) -> Vec<Transition<FoosballI
         }
     }
     out
+}
+
+/// The tiny sweep's arguments: PPO and SAC, seeds 0 and 1, two baselines.
+pub const TINY_SWEEP: [&str; 6] = [
+    "--algos",
+    "ppo,sac",
+    "--seeds",
+    "0..2",
+    "--baselines",
+    "shooter,zero",
+];
+
+/// The files that define the results of the tiny sweep of PPO and SAC x seeds 0, 1 with
+/// the shooter and zero baselines (logs without timings, metrics, trajectories), by name.
+pub fn sweep_results(out: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut files = Vec::new();
+    for run in ["ppo-seed0", "ppo-seed1", "sac-seed0", "sac-seed1"] {
+        for f in [
+            "episodes.csv",
+            "evaluations.csv",
+            "test/metrics.json",
+            "test/trajectories.bin",
+        ] {
+            files.push(format!("{run}/{f}"));
+        }
+    }
+    files.push("shooter-reference/metrics.json".into());
+    files.push("zero-reference/metrics.json".into());
+    files
+        .into_iter()
+        .map(|f| {
+            let path = out.join(&f);
+            let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            (f, bytes)
+        })
+        .collect()
 }
