@@ -54,14 +54,23 @@ fn feed(agent: &mut dyn Agent, n: usize, rng: &mut ChaCha8Rng) {
 }
 
 /// Median of `reps` samples after one warm-up; each sample runs `prepare` untimed, then
-/// times `work`.
-fn median<T>(reps: usize, mut prepare: impl FnMut() -> T, mut work: impl FnMut(T)) -> f64 {
+/// times `work`. The device is synchronised after `prepare` and before the clock stops,
+/// so on a GPU the time is that of the work's kernels, not of their queueing.
+fn median<T>(
+    reps: usize,
+    device: &Device,
+    mut prepare: impl FnMut() -> T,
+    mut work: impl FnMut(T),
+) -> f64 {
+    let sync = || device.sync().expect("the device ran the work");
     work(prepare());
     let mut times: Vec<f64> = (0..reps)
         .map(|_| {
             let input = prepare();
+            sync();
             let t = Instant::now();
             work(input);
+            sync();
             t.elapsed().as_secs_f64()
         })
         .collect();
@@ -76,11 +85,13 @@ fn off_policy_update(
     reps: usize,
     per_sample: usize,
     rng: &mut ChaCha8Rng,
+    device: &Device,
 ) -> f64 {
     feed(agent, BATCH + 1, rng);
     let cell = std::cell::RefCell::new((agent, rng));
     median(
         reps,
+        device,
         || (),
         |()| {
             let (agent, rng) = &mut *cell.borrow_mut();
@@ -126,7 +137,8 @@ fn bench_size(hidden: &[usize], algos: &str, reps: usize, device: &Device) -> Ve
     if wanted("sac") {
         let mut sac = SacConfig::default();
         bench_settings(&mut sac.net, &mut sac.off_policy, hidden);
-        let t = off_policy_update(&mut Sac::agent(OBS, ACT, sac, 1, device), reps, 1, &mut rng);
+        let mut agent = Sac::agent(OBS, ACT, sac, 1, device);
+        let t = off_policy_update(&mut agent, reps, 1, &mut rng, device);
         println!("{label:>8}  SAC update  {:>9.2} ms", t * 1e3);
         out.push((format!("sac_update_ms_{key}"), t * 1e3));
     }
@@ -134,7 +146,7 @@ fn bench_size(hidden: &[usize], algos: &str, reps: usize, device: &Device) -> Ve
         let mut td3 = Td3Config::default();
         bench_settings(&mut td3.net, &mut td3.off_policy, hidden);
         let mut agent = Td3::agent(OBS, ACT, td3, 1, device);
-        let t = off_policy_update(&mut agent, reps, 2, &mut rng);
+        let t = off_policy_update(&mut agent, reps, 2, &mut rng, device);
         println!(
             "{label:>8}  TD3 update  {:>9.2} ms (mean over a critic-only and a delayed step)",
             t * 1e3
@@ -156,6 +168,7 @@ fn bench_size(hidden: &[usize], algos: &str, reps: usize, device: &Device) -> Ve
     let agent = std::cell::RefCell::new(Ppo::new(OBS, ACT, ppo, 1, device));
     let t = median(
         reps,
+        device,
         || feed(&mut *agent.borrow_mut(), BATCH, &mut rng),
         |()| assert!(agent.borrow_mut().update(1.0).is_some()),
     );
@@ -163,6 +176,7 @@ fn bench_size(hidden: &[usize], algos: &str, reps: usize, device: &Device) -> Ve
     let obs = random(OBS, &mut ChaCha8Rng::seed_from_u64(1));
     let act = median(
         reps,
+        device,
         || (),
         |()| drop(agent.act(&obs, ActMode::Deterministic)),
     );
@@ -186,11 +200,12 @@ fn breakdown(hidden: &[usize], reps: usize, device: &Device) {
         device,
     );
     let loss = |net: &Mlp| net.forward(x.clone()).square().mean();
-    let fb = median(reps, || loss(&net), |l| drop(l.backward()));
+    let fb = median(reps, device, || (), |()| drop(loss(&net).backward()));
     let mut adam = Adam::new(AdamConfig::default());
     let net = std::cell::RefCell::new(net);
     let step = median(
         reps,
+        device,
         || loss(&net.borrow()).backward(),
         |mut g| {
             adam.step_in_place(&mut *net.borrow_mut(), &mut g, 1e-4);
@@ -198,7 +213,12 @@ fn breakdown(hidden: &[usize], reps: usize, device: &Device) {
     );
     let net = net.into_inner();
     let mut target = net.clone().no_grad();
-    let polyak = median(reps, || (), |()| polyak_update(&mut target, &net, 0.005));
+    let polyak = median(
+        reps,
+        device,
+        || (),
+        |()| polyak_update(&mut target, &net, 0.005),
+    );
     println!(
         "{label:>8}  one Q-net ({} params): forward+backward {:.1} ms, Adam {:.1} ms, polyak {:.1} ms",
         net.num_params(),

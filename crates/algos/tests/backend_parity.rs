@@ -1,5 +1,6 @@
 //! The GPU path computes what the CPU path computes: one SAC, TD3 and PPO update on
-//! wgpu (lavapipe, Mesa's software Vulkan driver, in CI; a real GPU where there is one)
+//! wgpu, and on wgpu pinned to Vulkan/SPIR-V when built with `--features vulkan`
+//! (lavapipe, Mesa's software Vulkan driver, in CI; a real GPU where there is one)
 //! against the same update on flex, from the same seed and the same transitions.
 //!
 //! Compared: the update's losses (they use the pre-update networks, so they differ by
@@ -9,7 +10,7 @@
 //! and on an H100 (README, "GPU backends"), and each test also checks that the update moved
 //! the actions by much more than the tolerance, so a backend that skipped it would fail.
 //!
-//! `cargo test -p foosball-algos --release --features wgpu --test backend_parity`
+//! `cargo test -p foosball-algos --release --features vulkan --test backend_parity`
 
 use foosball_algos::agent::{ActMode, Agent, Experience, Metrics};
 use foosball_algos::{
@@ -28,13 +29,16 @@ const LOSS_TOLERANCE: f64 = 1e-5;
 /// Absolute gap allowed between the backends' post-update actions (actions lie in [-1, 1]).
 const ACTION_TOLERANCE: f32 = 1e-5;
 
-fn devices() -> (Device, Device) {
-    (
-        Backend::Flex.device().expect("flex is compiled in"),
-        Backend::Wgpu
-            .device()
-            .expect("wgpu is compiled in (this test needs --features wgpu)"),
-    )
+/// The CPU device and each GPU backend compiled in (wgpu always: this test needs
+/// `--features wgpu`) with its device.
+fn devices() -> (Device, Vec<(Backend, Device)>) {
+    let gpus = [Backend::Wgpu, Backend::Vulkan]
+        .into_iter()
+        .filter(|b| b.is_compiled())
+        .map(|b| (b, b.device().expect("a compiled-in backend has a device")))
+        .collect::<Vec<_>>();
+    assert!(!gpus.is_empty(), "this test needs --features wgpu");
+    (Backend::Flex.device().expect("flex is compiled in"), gpus)
 }
 
 /// Feeds `n` transitions whose observations and rewards come from `seed`; actions are the
@@ -107,12 +111,10 @@ fn check(name: &str, cpu: &mut dyn Agent, gpu: &mut dyn Agent, n: usize, updates
                 continue; // TD3's actor loss before its first delayed step
             }
             let gap = (x - y).abs() / x.abs().max(1e-3);
-            println!(
-                "{name} update {step} {key}: flex {x:.6} wgpu {y:.6} (relative gap {gap:.2e})"
-            );
+            println!("{name} update {step} {key}: flex {x:.6} gpu {y:.6} (relative gap {gap:.2e})");
             assert!(
                 gap <= LOSS_TOLERANCE,
-                "{name} {key}: flex {x}, wgpu {y}, relative gap {gap:.2e} > {LOSS_TOLERANCE:e}"
+                "{name} {key}: flex {x}, gpu {y}, relative gap {gap:.2e} > {LOSS_TOLERANCE:e}"
             );
         }
     }
@@ -134,29 +136,33 @@ fn check(name: &str, cpu: &mut dyn Agent, gpu: &mut dyn Agent, n: usize, updates
 fn sac_update_matches_cpu() {
     let mut config = SacConfig::default();
     shrink(&mut config.net, Some(&mut config.off_policy));
-    let (cpu, gpu) = devices();
-    check(
-        "SAC",
-        &mut Sac::agent(OBS, ACT, config.clone(), 3, &cpu),
-        &mut Sac::agent(OBS, ACT, config, 3, &gpu),
-        BATCH + 1,
-        2,
-    );
+    let (cpu, gpus) = devices();
+    for (backend, gpu) in gpus {
+        check(
+            &format!("SAC on {backend}"),
+            &mut Sac::agent(OBS, ACT, config.clone(), 3, &cpu),
+            &mut Sac::agent(OBS, ACT, config.clone(), 3, &gpu),
+            BATCH + 1,
+            2,
+        );
+    }
 }
 
 #[test]
 fn td3_update_matches_cpu() {
     let mut config = Td3Config::default();
     shrink(&mut config.net, Some(&mut config.off_policy));
-    let (cpu, gpu) = devices();
-    // Two updates: TD3 moves its actor on every second one.
-    check(
-        "TD3",
-        &mut Td3::agent(OBS, ACT, config.clone(), 3, &cpu),
-        &mut Td3::agent(OBS, ACT, config, 3, &gpu),
-        BATCH + 1,
-        2,
-    );
+    let (cpu, gpus) = devices();
+    for (backend, gpu) in gpus {
+        // Two updates: TD3 moves its actor on every second one.
+        check(
+            &format!("TD3 on {backend}"),
+            &mut Td3::agent(OBS, ACT, config.clone(), 3, &cpu),
+            &mut Td3::agent(OBS, ACT, config.clone(), 3, &gpu),
+            BATCH + 1,
+            2,
+        );
+    }
 }
 
 #[test]
@@ -168,12 +174,14 @@ fn ppo_update_matches_cpu() {
         ..PpoConfig::default()
     };
     shrink(&mut config.net, None);
-    let (cpu, gpu) = devices();
-    check(
-        "PPO",
-        &mut Ppo::new(OBS, ACT, config.clone(), 3, &cpu),
-        &mut Ppo::new(OBS, ACT, config, 3, &gpu),
-        BATCH,
-        1,
-    );
+    let (cpu, gpus) = devices();
+    for (backend, gpu) in gpus {
+        check(
+            &format!("PPO on {backend}"),
+            &mut Ppo::new(OBS, ACT, config.clone(), 3, &cpu),
+            &mut Ppo::new(OBS, ACT, config.clone(), 3, &gpu),
+            BATCH,
+            1,
+        );
+    }
 }

@@ -13,8 +13,11 @@ pub enum Backend {
     Flex,
     /// burn-ndarray: the older CPU backend (feature `ndarray`).
     Ndarray,
-    /// wgpu: Vulkan/Metal/DX12 GPUs (feature `wgpu`).
+    /// wgpu: Vulkan/Metal/DX12 GPUs, the API and shader compiler settled at run time
+    /// (feature `wgpu`).
     Wgpu,
+    /// wgpu pinned to Vulkan with the SPIR-V compiler (feature `vulkan`).
+    Vulkan,
     /// CUDA GPUs (feature `cuda`).
     Cuda,
 }
@@ -22,8 +25,8 @@ pub enum Backend {
 /// A backend that is unknown or not compiled into this binary.
 #[derive(Debug, thiserror::Error)]
 pub enum BackendError {
-    /// The name is not one of `flex`, `ndarray`, `wgpu`, `cuda`.
-    #[error("unknown backend `{0}` (expected flex, ndarray, wgpu or cuda)")]
+    /// The name is not one of `flex`, `ndarray`, `wgpu`, `vulkan`, `cuda`.
+    #[error("unknown backend `{0}` (expected flex, ndarray, wgpu, vulkan or cuda)")]
     Unknown(String),
     /// The backend exists but this binary was built without its cargo feature.
     #[error("backend `{0}` is not compiled in: rebuild with `--features {0}`")]
@@ -32,8 +35,9 @@ pub enum BackendError {
 
 impl Backend {
     /// All backends, in the order the default is chosen from.
-    pub const ALL: [Backend; 4] = [
+    pub const ALL: [Backend; 5] = [
         Backend::Cuda,
+        Backend::Vulkan,
         Backend::Wgpu,
         Backend::Flex,
         Backend::Ndarray,
@@ -45,6 +49,7 @@ impl Backend {
             Backend::Flex => "flex",
             Backend::Ndarray => "ndarray",
             Backend::Wgpu => "wgpu",
+            Backend::Vulkan => "vulkan",
             Backend::Cuda => "cuda",
         }
     }
@@ -55,6 +60,7 @@ impl Backend {
             Backend::Flex => cfg!(feature = "flex"),
             Backend::Ndarray => cfg!(feature = "ndarray"),
             Backend::Wgpu => cfg!(feature = "wgpu"),
+            Backend::Vulkan => cfg!(feature = "vulkan"),
             Backend::Cuda => cfg!(feature = "cuda"),
         }
     }
@@ -78,6 +84,8 @@ impl Backend {
             Backend::Ndarray => Device::ndarray(),
             #[cfg(feature = "wgpu")]
             Backend::Wgpu => Device::wgpu(Default::default()),
+            #[cfg(feature = "vulkan")]
+            Backend::Vulkan => Device::vulkan(Default::default()),
             #[cfg(feature = "cuda")]
             Backend::Cuda => Device::cuda(0),
             #[allow(unreachable_patterns)]
