@@ -313,12 +313,7 @@ fn submit_sweep(args: &Args) -> Result<String, String> {
     }
     .map_err(|e| e.to_string())?;
     let tasks = spec.with_baselines(runs);
-    let submissions = Submissions::read(&out).map_err(|e| e.to_string())?;
-    let queue = if submissions.submissions.is_empty() {
-        Default::default()
-    } else {
-        queued(&submissions).map_err(|e| e.to_string())?
-    };
+    let queue = queued(&out).map_err(|e| e.to_string())?;
     let (mut todo, mut finished, mut busy) = (Vec::new(), 0, 0);
     for (i, task) in tasks.iter().enumerate() {
         if task.finished(&spec, &out) {
@@ -390,7 +385,7 @@ fn submit_sweep(args: &Args) -> Result<String, String> {
 
 /// `--status`: a line per task.
 fn print_status(out: &Path) -> Result<String, String> {
-    let lines = status(out, true).map_err(|e| e.to_string())?;
+    let lines = status(out).map_err(|e| e.to_string())?;
     Ok(lines
         .iter()
         .map(|l| l.line())

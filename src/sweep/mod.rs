@@ -316,14 +316,19 @@ pub fn run_task(
                 .map_err(|e| e.to_string())
         }
         Task::Baseline(p) => {
-            let record = baseline_record(&spec, *p);
-            let dir = out.join(&name);
-            let m = record
-                .test(spec.runs[0].protocol.test_episodes, &dir, false)
-                .map_err(|e| e.to_string())?;
+            let m = test_baseline(&spec, *p, &out.join(&name)).map_err(|e| e.to_string())?;
             Ok((name, Some(m)))
         }
     }
+}
+
+/// Plays baseline `policy`'s test episodes into `dir`.
+fn test_baseline(
+    spec: &SweepSpec,
+    policy: ScriptedPolicy,
+    dir: &Path,
+) -> Result<TestMetrics, crate::play::evaluation::PlayError> {
+    baseline_record(spec, policy).test(spec.runs[0].protocol.test_episodes, dir, false)
 }
 
 /// What a baseline of `spec` plays: `policy` on the first run's table and seed.
@@ -345,7 +350,7 @@ pub fn baseline(
     let task = Task::Baseline(policy);
     let dir = task.dir(spec, out);
     if !task.finished(spec, out) {
-        baseline_record(spec, policy).test(spec.runs[0].protocol.test_episodes, &dir, false)?;
+        test_baseline(spec, policy, &dir)?;
     }
     Ok(dir)
 }

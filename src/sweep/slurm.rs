@@ -264,12 +264,12 @@ pub fn submit(script: &Path, after: Option<&str>) -> Result<String, SlurmError> 
     Ok(id)
 }
 
-/// What the scheduler says of the tasks of `submissions` it still knows (pending,
-/// running, requeued...): task index -> (`JOB_TASK`, state, reason). A task submitted
-/// twice takes the latest submission's. Jobs SLURM has forgotten (`MinJobAge`) are absent.
-pub fn queued(
-    submissions: &Submissions,
-) -> Result<BTreeMap<usize, (String, String, String)>, SlurmError> {
+/// What the scheduler says of the tasks of the sweep in `out` (its recorded submissions)
+/// that it still knows (pending, running, requeued...): task index -> (`JOB_TASK`, state,
+/// reason). A task submitted twice takes the latest submission's. Jobs SLURM has
+/// forgotten (`MinJobAge`) are absent; a sweep never submitted asks nothing of SLURM.
+pub fn queued(out: &Path) -> Result<BTreeMap<usize, (String, String, String)>, SlurmError> {
+    let submissions = Submissions::read(out)?;
     let arrays: Vec<&str> = submissions
         .submissions
         .iter()

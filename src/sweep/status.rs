@@ -2,7 +2,7 @@
 //! directory (test metrics, the lock of a process training it, the checkpoint, why it
 //! last stopped) and, for a sweep submitted to SLURM, from the scheduler.
 
-use super::slurm::{Submissions, queued};
+use super::slurm::queued;
 use super::{STOPPED_FILE, SweepError, SweepSpec, Task};
 use crate::play::metrics::TestMetrics;
 use crate::run::checkpoint;
@@ -130,21 +130,12 @@ fn state(spec: &SweepSpec, out: &Path, task: &Task) -> State {
     }
 }
 
-/// Every task of the sweep in `out` with its state; `scheduler` also asks SLURM about the
-/// tasks of the sweep's recorded submissions.
-pub fn status(out: &Path, scheduler: bool) -> Result<Vec<TaskStatus>, SweepError> {
+/// Every task of the sweep in `out` with its state and, for a submitted sweep, what SLURM
+/// says of the tasks of its recorded submissions.
+pub fn status(out: &Path) -> Result<Vec<TaskStatus>, SweepError> {
     let spec = SweepSpec::load(out)?;
     let tasks = spec.tasks(out)?;
-    let queue = if scheduler {
-        let submissions = Submissions::read(out).map_err(SweepError::Slurm)?;
-        if submissions.submissions.is_empty() {
-            Default::default()
-        } else {
-            queued(&submissions).map_err(SweepError::Slurm)?
-        }
-    } else {
-        Default::default()
-    };
+    let queue = queued(out).map_err(SweepError::Slurm)?;
     Ok(tasks
         .iter()
         .enumerate()
