@@ -3,7 +3,7 @@
 //! with the file, the line and the dotted key.
 
 use foosball_algos::{NetConfig, OffPolicyConfig, PpoConfig, SacConfig, Td3Config};
-use foosball_env::{ConfigError, FoosballConfig, ObservationKind};
+use foosball_env::{ConfigError, FoosballConfig, ObservationKind, OpponentKind};
 use foosball_nets::Backend;
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
@@ -139,6 +139,105 @@ impl Default for Protocol {
     }
 }
 
+/// Self-play (`[self_play]`; absent: black is `env.opponent`, as in the paper): black is
+/// drawn per training episode from a pool of the learner's own snapshots and fixed anchors
+/// (see `crate::self_play`). Evaluations and the test still play `env.opponent`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SelfPlayConfig {
+    /// Env steps between snapshots of the learner into the pool (the first at step 0).
+    pub snapshot_every: u64,
+    /// The newest snapshots that can be drawn (older ones stay on disk, out of play).
+    pub pool_size: usize,
+    /// Share of episodes against the newest snapshot.
+    pub latest_share: f64,
+    /// Share of episodes against an anchor (uniform among `anchors`).
+    pub anchor_share: f64,
+    /// Fixed opponents, built-in black policies.
+    pub anchors: Vec<OpponentKind>,
+    /// Prioritised fictitious self-play over the rest: snapshot `j` is drawn with weight
+    /// `(1 - p_j)^pfsp_power`, `p_j` the learner's points share against it (a win 1, a
+    /// draw 1/2, one virtual draw as prior); 0 draws uniformly.
+    pub pfsp_power: f64,
+    /// Reward lost per agent step while the ball is in the learner's own goal (black
+    /// scored); the own-goal line is black's goal line mirrored, as in matches.
+    pub conceded_penalty: f32,
+}
+
+impl Default for SelfPlayConfig {
+    fn default() -> Self {
+        Self {
+            snapshot_every: 50_000,
+            pool_size: 20,
+            latest_share: 0.5,
+            anchor_share: 0.2,
+            anchors: vec![
+                OpponentKind::Static,
+                OpponentKind::Random,
+                OpponentKind::Scripted,
+                OpponentKind::Shooter,
+            ],
+            pfsp_power: 2.0,
+            conceded_penalty: 1000.0,
+        }
+    }
+}
+
+impl SelfPlayConfig {
+    /// Rejects out-of-range values; keys under `self_play`.
+    fn validate(&self) -> Result<(), ConfigError> {
+        let err =
+            |key: &str, message: String| ConfigError::new(format!("self_play.{key}"), message);
+        if self.snapshot_every == 0 {
+            return Err(err("snapshot_every", "must be positive".into()));
+        }
+        if self.pool_size == 0 {
+            return Err(err("pool_size", "must be positive".into()));
+        }
+        for (key, v) in [
+            ("latest_share", self.latest_share),
+            ("anchor_share", self.anchor_share),
+        ] {
+            if !(0.0..=1.0).contains(&v) {
+                return Err(err(key, format!("must be in [0, 1], got {v}")));
+            }
+        }
+        if self.latest_share + self.anchor_share > 1.0 {
+            return Err(err(
+                "anchor_share",
+                format!(
+                    "latest_share + anchor_share must be at most 1, got {} + {}",
+                    self.latest_share, self.anchor_share
+                ),
+            ));
+        }
+        if self.anchor_share > 0.0 && self.anchors.is_empty() {
+            return Err(err(
+                "anchors",
+                "empty, but anchor_share > 0 draws from it: name at least one (static, \
+                 random, scripted, shooter, dribbler) or set anchor_share = 0"
+                    .into(),
+            ));
+        }
+        if !(self.pfsp_power.is_finite() && self.pfsp_power >= 0.0) {
+            return Err(err(
+                "pfsp_power",
+                format!("must be a finite number >= 0, got {}", self.pfsp_power),
+            ));
+        }
+        if !(self.conceded_penalty.is_finite() && self.conceded_penalty >= 0.0) {
+            return Err(err(
+                "conceded_penalty",
+                format!(
+                    "must be a finite number >= 0, got {}",
+                    self.conceded_penalty
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// The algorithm a run trains with its settings: the TOML's `algo` and its section.
 #[derive(Clone, Debug, PartialEq)]
 pub enum AlgoConfig {
@@ -218,6 +317,8 @@ pub struct RunConfig {
     pub env: FoosballConfig,
     /// The algorithm to train and its settings.
     pub algorithm: AlgoConfig,
+    /// Self-play against a pool of the learner's snapshots (`None`: off).
+    pub self_play: Option<SelfPlayConfig>,
 }
 
 /// A run configuration as TOML writes it: `algo` names the algorithm and at most that
@@ -236,6 +337,8 @@ struct RunConfigFile {
     sac: Option<SacConfig>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     td3: Option<Td3Config>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    self_play: Option<SelfPlayConfig>,
 }
 
 impl TryFrom<RunConfigFile> for RunConfig {
@@ -261,6 +364,7 @@ impl TryFrom<RunConfigFile> for RunConfig {
             protocol: f.protocol,
             env: f.env,
             algorithm,
+            self_play: f.self_play,
         })
     }
 }
@@ -281,6 +385,7 @@ impl From<RunConfig> for RunConfigFile {
             ppo,
             sac,
             td3,
+            self_play: c.self_play,
         }
     }
 }
@@ -470,6 +575,9 @@ impl RunConfig {
         }
         self.env.validate().map_err(|e| e.under("env"))?;
         self.algorithm.validate()?;
+        if let Some(sp) = &self.self_play {
+            sp.validate()?;
+        }
         let o = &self.env.observation;
         if o.kind == ObservationKind::Image {
             let (h, w) = (o.height as usize, o.width as usize);

@@ -12,8 +12,10 @@
 //!    [`png`] (charts written atomically);
 //! 2. [`play`]: who plays, episodes on held-out seeds, test metrics, trajectories,
 //!    animations;
-//! 3. [`run`]: one training run (the loop, checkpoints, logs, budget);
-//! 4. [`sweep`] (algorithms x seeds into one directory, resumable), [`report`]
+//! 3. [`self_play`]: the opponent pool of self-play training (snapshots, anchors,
+//!    prioritised fictitious self-play);
+//! 4. [`run`]: one training run (the loop, checkpoints, logs, budget);
+//! 5. [`sweep`] (algorithms x seeds into one directory, resumable), [`report`]
 //!    (side-by-side tables and charts of several runs) and [`league`] (round-robins of
 //!    two-sided matches, ratings, the leaderboard).
 //!
@@ -29,6 +31,7 @@ pub mod play;
 pub mod png;
 pub mod report;
 pub mod run;
+pub mod self_play;
 pub mod sweep;
 
 pub use foosball_algos as algos;

@@ -217,12 +217,13 @@ fn the_root_package_s_layers_import_one_way() {
     if let Some(c) = cycle(&g) {
         panic!("src: layers in a circle {}", c.join(" -> "));
     }
-    // The layers of lib.rs: play below run, run below sweep; report and league read play.
+    // The layers of lib.rs: play below self_play below run, run below sweep; report and
+    // league read play.
     let uses = |a: &str, b: &str| g.get(a).is_some_and(|u| u.contains(b));
     assert!(uses("run", "play") && uses("sweep", "run") && uses("report", "play"));
-    assert!(uses("league", "play"));
+    assert!(uses("league", "play") && uses("self_play", "play") && uses("run", "self_play"));
     for low in ["config", "agents", "files", "png", "play"] {
-        for high in ["run", "sweep", "report", "league"] {
+        for high in ["self_play", "run", "sweep", "report", "league"] {
             assert!(!uses(low, high), "{low} imports {high}");
         }
     }

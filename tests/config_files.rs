@@ -47,6 +47,42 @@ fn the_shipped_configs_hold_the_papers_protocol() {
     }
 }
 
+/// `configs/self_play.toml` is SAC as in `sac.toml` on 64 x 64 networks with the
+/// defaults of `[self_play]` spelled out, and reads back as saved.
+#[test]
+fn the_shipped_self_play_config_is_sac_with_the_default_pool() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/self_play.toml");
+    let c = RunConfig::load(&path).unwrap();
+    let sac = RunConfig::load(&config_path(Algo::Sac)).unwrap();
+    assert_eq!(c.algo(), Algo::Sac);
+    assert_eq!(c.hidden(), &[64, 64]);
+    let (AlgoConfig::Sac(a), AlgoConfig::Sac(b)) = (&c.algorithm, &sac.algorithm) else {
+        panic!("not SAC");
+    };
+    assert_eq!(a.off_policy, b.off_policy);
+    assert_eq!((a.gamma, a.net.adam.clone()), (b.gamma, b.net.adam.clone()));
+    let sp = c.self_play.as_ref().expect("a [self_play] section");
+    let defaults = foosball_rl::config::SelfPlayConfig::default();
+    assert_eq!(
+        (
+            sp.pool_size,
+            sp.latest_share,
+            sp.anchor_share,
+            &sp.anchors,
+            sp.pfsp_power
+        ),
+        (
+            defaults.pool_size,
+            defaults.latest_share,
+            defaults.anchor_share,
+            &defaults.anchors,
+            defaults.pfsp_power
+        )
+    );
+    let again = RunConfig::from_toml(&c.to_toml(), Path::new("saved.toml")).unwrap();
+    assert_eq!(again, c);
+}
+
 fn error(text: &str) -> String {
     let e = RunConfig::from_toml(text, Path::new("bad.toml")).unwrap_err();
     e.to_string()

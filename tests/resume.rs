@@ -63,6 +63,12 @@ fn assert_same_run(a: &Path, b: &Path, label: &str) {
             "{label}: {file} differs"
         );
     }
+    if a.join("pool").exists() {
+        assert!(
+            read(&a.join("pool/pool.json")) == read(&b.join("pool/pool.json")),
+            "{label}: the self-play records differ"
+        );
+    }
     assert_eq!(scalars(a), scalars(b), "{label}: scalars.csv differs");
     assert!(
         training_state(a) == training_state(b),
@@ -124,6 +130,13 @@ fn a_sac_run_on_pixels_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_o
 #[test]
 fn a_td3_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_one() {
     stopped_mid_epoch_and_resumed("td3", "");
+}
+
+/// Self-play: the pool (snapshots at steps 0, 60, ..., records) is part of the checkpoint;
+/// the environments' opponents are drawn again as the uninterrupted run drew them.
+#[test]
+fn a_self_play_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_one() {
+    stopped_mid_epoch_and_resumed("sac", "[self_play]\nsnapshot_every = 60\npool_size = 3\n");
 }
 
 #[test]

@@ -95,6 +95,54 @@ fn a_killed_sweep_run_again_ends_as_an_uninterrupted_one() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// SIGTERM stops the run in flight and starts no other: with one job, the runs after the
+/// first are not started, and the sweep exits with the message
+/// that says how to resume.
+#[test]
+fn a_sweep_stopped_by_sigterm_starts_no_further_run() {
+    let dir = scratch("sweep-term");
+    let configs = configs(&dir);
+    let out = dir.join("out");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_sweep"))
+        .args(["--jobs", "1", "--configs"])
+        .arg(&configs)
+        .arg("--out")
+        .arg(&out)
+        .args(TINY_SWEEP)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while !out.join("ppo-seed0/checkpoint/state.bin").exists() {
+        assert!(
+            start.elapsed() < Duration::from_secs(120) && child.try_wait().unwrap().is_none(),
+            "no checkpoint written"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let kill = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        err.contains("ppo-seed0") && err.contains("stopped by a signal"),
+        "{err}"
+    );
+    assert!(err.contains("1 run(s) failed"), "{err}");
+    for run in ["sac-seed0", "ppo-seed1", "sac-seed1"] {
+        assert!(
+            !err.contains(run),
+            "{run} was started after the signal\n{err}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn another_sweep_in_the_same_directory_and_bad_seeds_are_refused() {
     let dir = scratch("sweep-refused");

@@ -254,7 +254,8 @@ fn run(args: &Args) -> Result<String, String> {
     std::thread::scope(|scope| {
         for _ in 0..jobs.min(todo.max(1)) {
             scope.spawn(|| {
-                loop {
+                // After a stop signal no run starts (the ones in flight stop themselves).
+                while !interrupt::requested() {
                     let i = next.fetch_add(1, Ordering::SeqCst);
                     let Some(run) = plan.get(i) else { break };
                     if run.start.is_none() {

@@ -157,14 +157,21 @@ impl Tally {
 
 /// `table` with the match rules of the module docs.
 pub fn match_table(table: &FoosballConfig, rules: &MatchRules) -> FoosballConfig {
-    let mut t = table.clone();
+    let mut t = symmetric_goals(table);
     t.rules.end_on_goal = true;
     t.rules.no_progress_steps = u32::MAX;
     t.rules.stagnant_steps = ((rules.dead_ball_s / t.agent_dt()).ceil() as u32).max(1);
+    t.max_episode_steps = u32::MAX;
+    t
+}
+
+/// `table` with yellow's own-goal line at black's goal line mirrored, so that a goal by
+/// black counts (the reference's own-goal line, world y < -69, cannot be reached).
+pub fn symmetric_goals(table: &FoosballConfig) -> FoosballConfig {
+    let mut t = table.clone();
     // own_goal_line_world = -own_goal_line_y + oy  must equal  -(goal_line_y + oy).
     let oy = t.ball_frame.origin()[1];
     t.reward.own_goal_line_y = t.reward.goal_line_y + 2.0 * oy;
-    t.max_episode_steps = u32::MAX;
     t
 }
 

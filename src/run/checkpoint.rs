@@ -9,6 +9,7 @@
 //! checkpoint (see [`crate::run::train`]), so no physics state needs saving.
 
 use crate::files::RunFileError;
+use crate::self_play::pool::PoolState;
 use foosball_algos::{Agent, AgentError};
 use foosball_nets::{Snapshot, SnapshotError};
 use std::path::{Path, PathBuf};
@@ -34,6 +35,8 @@ pub struct LoopState {
     /// Bytes of each append-only log file (in [`crate::run::log::CSV_FILES`] order) at the
     /// checkpoint; a resumed run cuts them back to these lengths.
     pub log_bytes: Vec<u64>,
+    /// A self-play run's pool (snapshot steps, records); `None` without self-play.
+    pub self_play: Option<PoolState>,
 }
 
 impl LoopState {
@@ -43,6 +46,9 @@ impl LoopState {
         snap.put_u64("loop.next_log", self.next_log);
         snap.put_f64("loop.best", self.best);
         snap.put_u64s("loop.log_bytes", self.log_bytes.clone());
+        if let Some(pool) = &self.self_play {
+            pool.save(snap);
+        }
     }
 
     fn load(snap: &Snapshot<'_>) -> Result<Self, SnapshotError> {
@@ -52,6 +58,7 @@ impl LoopState {
             next_log: snap.u64("loop.next_log")?,
             best: snap.f64("loop.best")?,
             log_bytes: snap.u64s("loop.log_bytes")?.to_vec(),
+            self_play: PoolState::load(snap)?,
         })
     }
 }

@@ -11,6 +11,7 @@ use crate::config::{Checkpoint, RunConfig, TestActions};
 use crate::files::{RunFileError, write_atomic};
 use crate::play::evaluation::{Episodes, PlayError, foosball_envs, play_agent, write_test};
 use crate::play::metrics::TestMetrics;
+use crate::self_play::{SelfPlay, SelfPlayError};
 use foosball_algos::{Agent, AgentError, Collector};
 use foosball_env::seeding::{EVAL_ENVS, TEST_ENVS, TRAIN_ENVS, derive_seed};
 use foosball_env::{EnvError, FoosballInfo, VecEnv, VecEnvError};
@@ -51,6 +52,9 @@ pub enum TrainError {
     /// `--resume` on a directory without a checkpoint.
     #[error("{0}: no checkpoint to resume from (none is written before the first epoch ends)")]
     NoCheckpoint(PathBuf),
+    /// Self-play's pool could not be saved, loaded or written.
+    #[error(transparent)]
+    SelfPlay(#[from] SelfPlayError),
     /// Another process trains the run, or its lock file could not be written.
     #[error(transparent)]
     Locked(#[from] LockError),
@@ -151,6 +155,7 @@ fn clear_run_dir(run_dir: &Path) -> Result<(), TrainError> {
         "last",
         "test",
         "tensorboard",
+        crate::self_play::POOL_DIR,
     ] {
         checkpoint::remove_dir(&run_dir.join(dir))?;
     }
@@ -203,6 +208,7 @@ pub fn train(
                     next_log: LOG_EVERY,
                     best: f64::NEG_INFINITY,
                     log_bytes: vec![0; CSV_FILES.len()],
+                    self_play: None,
                 }
             }
         };
@@ -220,7 +226,21 @@ pub fn train(
             (agent.env_steps(), agent.gradient_steps()),
         )?;
         let n = p.envs;
-        let envs = VecEnv::new(foosball_envs(&config.env, n)?, threads)?;
+        let mut self_play = match &config.self_play {
+            Some(sp) => Some(SelfPlay::start(
+                config,
+                sp,
+                run_dir,
+                n,
+                state.self_play.as_ref(),
+            )?),
+            None => None,
+        };
+        let envs = match &self_play {
+            Some(s) => s.envs(n)?,
+            None => foosball_envs(&config.env, n)?,
+        };
+        let envs = VecEnv::new(envs, threads)?;
         let mut collector = Collector::with_seeds(envs, &restart_seeds(p.seed, done, n));
         let total = p.total_env_steps();
         let progress = |env_steps, event| Progress {
@@ -231,12 +251,20 @@ pub fn train(
         let started = (Instant::now(), agent.env_steps(), agent.gradient_steps());
         report(&progress(started.1, Event::Started));
         let mut last_tick = started.0;
+        if let Some(s) = &mut self_play {
+            s.after_step(agent.env_steps(), agent.as_ref())?;
+        }
         for epoch in done + 1..=u64::from(p.epochs) {
             let end = epoch * p.steps_per_epoch;
             while agent.env_steps() < end {
                 let steps = agent.env_steps();
                 let remaining = 1.0 - steps as f64 / total as f64;
-                let on_episode = |_, e, info: &FoosballInfo| log.episode(steps, e, info);
+                let on_episode = |i, e, info: &FoosballInfo| {
+                    log.episode(steps, e, info);
+                    if let Some(s) = &self_play {
+                        s.on_episode(i, info);
+                    }
+                };
                 let update = if steps + n as u64 >= end {
                     let seeds = restart_seeds(p.seed, epoch, n);
                     collector.step_then_restart(agent.as_mut(), remaining, &seeds, on_episode)
@@ -247,6 +275,9 @@ pub fn train(
                     log.update(m);
                 }
                 let steps = agent.env_steps();
+                if let Some(s) = &mut self_play {
+                    s.after_step(steps, agent.as_ref())?;
+                }
                 if interrupt::requested() {
                     return Err(interrupted(run_dir, steps, epoch - 1));
                 }
@@ -301,8 +332,12 @@ pub fn train(
                 next_log,
                 best,
                 log_bytes: log.csv_bytes()?,
+                self_play: self_play.as_ref().map(SelfPlay::state),
             };
             checkpoint::write(run_dir, agent.as_ref(), &state)?;
+            if let Some(s) = &self_play {
+                s.write_records(steps)?;
+            }
             report(&progress(steps, Event::Checkpoint(epoch)));
         }
         report(&progress(agent.env_steps(), Event::Test));

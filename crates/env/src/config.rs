@@ -622,6 +622,23 @@ pub enum OpponentKind {
     Random,
     /// Slides each rod so its nearest man tracks the ball's x, feet down.
     Scripted,
+    /// The scripted shooter ([`crate::scripted::Kicker::shooter`]) playing black.
+    Shooter,
+    /// The scripted dribbler ([`crate::scripted::Kicker::dribbler`]) playing black.
+    Dribbler,
+}
+
+impl OpponentKind {
+    /// Its name in TOML (`static`, `random`, `scripted`, `shooter`, `dribbler`).
+    pub fn name(self) -> &'static str {
+        match self {
+            OpponentKind::Static => "static",
+            OpponentKind::Random => "random",
+            OpponentKind::Scripted => "scripted",
+            OpponentKind::Shooter => "shooter",
+            OpponentKind::Dribbler => "dribbler",
+        }
+    }
 }
 
 /// Ranges sampled uniformly once per episode from the environment's RNG. A range `[a, a]`

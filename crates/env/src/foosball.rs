@@ -24,8 +24,9 @@ use crate::layout::{
     ROD_SLIDE_VEL, action_slide, action_turn,
 };
 use crate::observation::{FrameStack, ObservationKind};
-use crate::opponent::{Opponent, opponent_for};
+use crate::opponent::Opponent;
 use crate::render::{Frame, Renderer};
+use crate::roster::opponent_for;
 use crate::table::{PhysicsParams, Table};
 
 /// Why an episode ended.
@@ -408,7 +409,7 @@ impl Env for FoosballEnv {
         let table = Table::new(&draw.physics, [x, y]);
         let state = Self::observe(&table);
         self.table = Some(table);
-        self.opponent.reset();
+        self.opponent.reset(&mut self.rng);
         self.episode = Some(Episode {
             draw,
             steps: 0,

@@ -8,7 +8,8 @@
 //!   reproducible whatever the thread count.
 //! - [`render`]: top-down RGB frames of a table state (Gymnasium's `rgb_array`);
 //!   [`observation`]: the state or stacked frames of it as what the agent sees.
-//! - [`scripted`]: hand-written shooter and dribbler, the yardsticks for learners.
+//! - [`scripted`]: hand-written shooter and dribbler, the yardsticks for learners;
+//!   [`roster`]: the built-in opponents by name.
 //! - [`config`]: the table's settings and presets, refused by key ([`config_error`]).
 //! - [`geometry`] and [`layout`]: the table's numbers and the observation/action index
 //!   table; [`seeding`]: how every random stream derives from one run seed.
@@ -26,6 +27,7 @@ pub mod observation;
 pub mod opponent;
 pub mod pendulum;
 pub mod render;
+pub mod roster;
 pub mod scripted;
 pub mod seeding;
 pub mod servo;

@@ -5,7 +5,7 @@
 use rand::Rng;
 
 use crate::EnvRng;
-use crate::config::{ActionMap, OpponentKind};
+use crate::config::ActionMap;
 use crate::geometry::RODS;
 use crate::layout::{ACTION_DIM, BALL_POS, OBS_DIM, action_slide, action_turn};
 
@@ -15,8 +15,9 @@ pub trait Opponent: Send {
     /// `rng` is the environment's own stream, so random opponents stay reproducible.
     fn act(&mut self, obs: &[f32; OBS_DIM], rng: &mut EnvRng) -> [f32; ACTION_DIM];
 
-    /// Called at every environment reset.
-    fn reset(&mut self) {}
+    /// Called at every environment reset, after the start has been drawn from `rng` (the
+    /// environment's own stream): an opponent that picks who plays the episode draws here.
+    fn reset(&mut self, _rng: &mut EnvRng) {}
 
     /// Its actions are written for the linear map (a fraction of each joint's range), as
     /// hand-written controllers are: the env translates them into its own `action_map`
@@ -104,15 +105,6 @@ pub fn man_at(rod: usize, x: f32) -> (f32, f32) {
         })
         .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.abs().total_cmp(&b.0.abs())))
         .unwrap_or((0.0, f32::INFINITY))
-}
-
-/// The built-in opponent of a kind.
-pub fn opponent_for(kind: OpponentKind) -> Box<dyn Opponent> {
-    match kind {
-        OpponentKind::Static => Box::new(StaticOpponent),
-        OpponentKind::Random => Box::new(RandomOpponent),
-        OpponentKind::Scripted => Box::new(ScriptedOpponent),
-    }
 }
 
 #[cfg(test)]

@@ -1,0 +1,96 @@
+//! Black in a self-play run's training environments: an opponent drawn from the pool at
+//! every reset.
+
+use std::sync::Arc;
+
+use foosball_env::config::ActionMap;
+use foosball_env::layout::{ACTION_DIM, OBS_DIM};
+use foosball_env::roster::opponent_for;
+use foosball_env::{EnvRng, Opponent};
+use rand::Rng;
+
+use super::pool::{Member, Pool};
+
+/// One environment's black: at each reset it draws two uniforms from the environment's
+/// stream; the opponent they pick is settled at the episode's first step, from the pool
+/// as it stands then (the loop changes the pool only between vec-env steps, so the pick
+/// is the same whether the reset came from an auto-reset or a restart at a checkpoint).
+pub struct PoolOpponent {
+    pool: Arc<Pool>,
+    env: usize,
+    anchors: Vec<Box<dyn Opponent>>,
+    draw: Option<(f64, f64)>,
+    current: Option<Member>,
+}
+
+impl PoolOpponent {
+    /// Black of environment `env` (its index in the vec-env) drawing from `pool`.
+    pub fn new(pool: Arc<Pool>, env: usize) -> Self {
+        let anchors = pool
+            .config()
+            .anchors
+            .iter()
+            .map(|&kind| opponent_for(kind))
+            .collect();
+        Self {
+            pool,
+            env,
+            anchors,
+            draw: None,
+            current: None,
+        }
+    }
+
+    /// The opponent of this episode, chosen now if not yet.
+    fn settle(&mut self) -> &Member {
+        if self.current.is_none() {
+            let (u, v) = self.draw.take().unwrap_or((0.0, 0.0));
+            let index = self.pool.choose(u, v);
+            self.pool.play(self.env, index);
+            self.current = Some(self.pool.member(index));
+        }
+        self.current.as_ref().expect("settled above")
+    }
+}
+
+impl Opponent for PoolOpponent {
+    fn act(&mut self, obs: &[f32; OBS_DIM], rng: &mut EnvRng) -> [f32; ACTION_DIM] {
+        self.act_in(ActionMap::default(), obs, rng)
+    }
+
+    fn act_in(
+        &mut self,
+        map: ActionMap,
+        obs: &[f32; OBS_DIM],
+        rng: &mut EnvRng,
+    ) -> [f32; ACTION_DIM] {
+        match self.settle().clone() {
+            Member::Anchor(kind) => {
+                let i = self
+                    .pool
+                    .config()
+                    .anchors
+                    .iter()
+                    .position(|&k| k == kind)
+                    .expect("an anchor of the pool's own list");
+                self.anchors[i].act_in(map, obs, rng)
+            }
+            Member::Snapshot { policy, .. } => match policy {
+                Some(p) => p
+                    .lock()
+                    .unwrap_or_else(std::sync::PoisonError::into_inner)
+                    .act_in(map, obs, rng),
+                None => [0.0; ACTION_DIM],
+            },
+        }
+    }
+
+    fn reset(&mut self, rng: &mut EnvRng) {
+        self.pool.reset_slot(self.env);
+        self.draw = Some((rng.random::<f64>(), rng.random::<f64>()));
+        self.current = None;
+        for a in &mut self.anchors {
+            a.reset(rng);
+        }
+    }
+}

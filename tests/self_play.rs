@@ -1,0 +1,157 @@
+//! Self-play training: the pool fills with snapshots on schedule, every training episode
+//! is recorded against the opponent it was drawn, snapshots play as contestants, a run is
+//! the same on one thread or two, and bad settings are refused by key.
+
+mod common;
+
+use common::{scratch, tiny_config_text};
+use foosball_rl::config::RunConfig;
+use foosball_rl::play::contestant::Contestant;
+use foosball_rl::play::matches::{MatchRules, match_table, play_match};
+use foosball_rl::run::train::{Start, train};
+use std::path::Path;
+
+const SELF_PLAY: &str = "[self_play]\nsnapshot_every = 100\npool_size = 2\nlatest_share = 0.4\n\
+                         anchor_share = 0.3\nanchors = [\"static\", \"random\", \"shooter\"]\n";
+
+fn config(threads: usize) -> RunConfig {
+    let text = tiny_config_text("sac", 2, 200)
+        .replace("envs = 2", &format!("envs = 2\nthreads = {threads}"))
+        + SELF_PLAY;
+    RunConfig::from_toml(&text, Path::new("tiny.toml")).unwrap()
+}
+
+fn json(path: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    serde_json::from_str(&text).unwrap()
+}
+
+#[test]
+fn the_pool_takes_snapshots_and_records_every_training_episode() {
+    let dir = scratch("self-play-pool");
+    let c = config(1);
+    train(&c, &dir, Start::Fresh, |_| {}).unwrap();
+    let pool = dir.join("pool");
+    for step in [0, 100, 200, 300, 400] {
+        let snap = pool.join(format!("step-{step:09}"));
+        assert!(snap.join("config.toml").is_file(), "{}", snap.display());
+        assert!(snap.join("last").is_dir(), "{}", snap.display());
+    }
+    let records = json(&pool.join("pool.json"));
+    assert_eq!(records["env_steps"], 400);
+    let rows = records["opponents"].as_array().unwrap();
+    let names: Vec<&str> = rows
+        .iter()
+        .map(|r| r["opponent"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        names,
+        [
+            "static",
+            "random",
+            "shooter",
+            "step-000000000",
+            "step-000000100",
+            "step-000000200",
+            "step-000000300",
+            "step-000000400"
+        ]
+    );
+    // pool_size = 2: the two newest snapshots are in play.
+    let in_play: Vec<bool> = rows
+        .iter()
+        .map(|r| r["in_play"].as_bool().unwrap())
+        .collect();
+    assert_eq!(in_play, [true, true, true, false, false, false, true, true]);
+    // Every training episode was played against one of them.
+    let episodes = std::fs::read_to_string(dir.join("episodes.csv"))
+        .unwrap()
+        .lines()
+        .count()
+        - 1;
+    let games: u64 = rows.iter().map(|r| r["games"].as_u64().unwrap()).sum();
+    assert_eq!(games, episodes as u64);
+    let played = rows
+        .iter()
+        .filter(|r| r["games"].as_u64().unwrap() > 0)
+        .count();
+    assert!(played >= 4, "opponents met: {played} of {}", rows.len());
+    for r in rows {
+        let (g, w, d) = (
+            r["games"].as_u64().unwrap(),
+            r["wins"].as_u64().unwrap(),
+            r["draws"].as_u64().unwrap(),
+        );
+        assert!(w + d <= g);
+        let share = r["points_share"].as_f64().unwrap();
+        assert!((share - (w as f64 + 0.5 * d as f64 + 0.5) / (g as f64 + 1.0)).abs() < 1e-12);
+    }
+    assert!(pool.join("pool.md").is_file());
+    assert!(dir.join("test/metrics.json").is_file());
+
+    // A snapshot is a contestant like any run: it plays a match against the shooter.
+    let snap: Contestant = pool
+        .join("step-000000300")
+        .to_str()
+        .unwrap()
+        .parse()
+        .unwrap();
+    let rules = MatchRules {
+        time_limit_s: 2.0,
+        ..MatchRules::default()
+    };
+    let table = match_table(&c.env, &rules);
+    let shooter: Contestant = "shooter".parse().unwrap();
+    let result = play_match(&table, &rules, &snap, &shooter, 5).unwrap();
+    assert!(result.steps > 0);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_self_play_run_is_the_same_on_one_thread_or_two() {
+    let dir = scratch("self-play-threads");
+    let (one, two) = (dir.join("one"), dir.join("two"));
+    for (run, threads) in [(&one, 1), (&two, 2)] {
+        std::fs::create_dir_all(run).unwrap();
+        train(&config(threads), run, Start::Fresh, |_| {}).unwrap();
+    }
+    for file in [
+        "episodes.csv",
+        "evaluations.csv",
+        "pool/pool.json",
+        "test/metrics.json",
+    ] {
+        assert!(
+            std::fs::read(one.join(file)).unwrap() == std::fs::read(two.join(file)).unwrap(),
+            "{file} differs between 1 and 2 threads"
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn bad_self_play_settings_are_refused_by_key() {
+    let base = tiny_config_text("sac", 1, 100);
+    for (section, key) in [
+        ("[self_play]\nanchors = []\n", "self_play.anchors"),
+        (
+            "[self_play]\nsnapshot_every = 0\n",
+            "self_play.snapshot_every",
+        ),
+        (
+            "[self_play]\nlatest_share = 0.9\nanchor_share = 0.2\n",
+            "self_play.anchor_share",
+        ),
+        ("[self_play]\npfsp_power = -1\n", "self_play.pfsp_power"),
+        (
+            "[self_play]\nanchors = [\"goalie\"]\n",
+            "tiny.toml:19: unknown variant `goalie`",
+        ),
+        ("[self_play]\nsnapshots = 3\n", "snapshots"),
+    ] {
+        let err = RunConfig::from_toml(&(base.clone() + section), Path::new("tiny.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains(key), "{section}: {err}");
+    }
+}
