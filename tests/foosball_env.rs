@@ -1,8 +1,9 @@
 //! The foosball environment's contract: observation layout, reward, episode rules, goal
 //! bookkeeping, refused actions and determinism.
 
+use foosball_rl::env::config::SpinRule;
 use foosball_rl::env::geometry::{BALL_RADIUS, GOAL_LINE_Y};
-use foosball_rl::env::layout::{ACTION_DIM, BALL_POS, OBS_DIM, ROD_ANGLE, ROD_SLIDE};
+use foosball_rl::env::layout::{ACTION_DIM, BALL_POS, OBS_DIM, ROD_ANGLE, ROD_SLIDE, action_turn};
 use foosball_rl::env::{
     EndReason, Env, EnvError, EnvRng, FoosballConfig, FoosballEnv, OpponentKind, Preset,
 };
@@ -340,4 +341,65 @@ fn a_physics_fault_truncates_with_a_finite_observation() {
     );
     assert_eq!(env.step(&NEUTRAL).unwrap_err(), EnvError::NeedsReset);
     assert!(env.reset(None).iter().all(|v| v.is_finite()));
+}
+
+/// The reference table with the stagnation and no-progress ends off, `spin` under a
+/// 90-degree limit (its position servos hold a rod within +-2.5 rad, so a full swing,
+/// about 286 degrees, never makes ITSF's 360).
+fn swinging_table(spin: SpinRule) -> FoosballConfig {
+    let mut c = FoosballConfig::preset(Preset::Reference);
+    c.rules.stagnant_steps = u32::MAX;
+    c.rules.no_progress_steps = u32::MAX;
+    c.rules.spin = spin;
+    c.rules.spin_limit_deg = 90.0;
+    c
+}
+
+/// Yellow's goalie swung from one end of its range to the other every 100 steps.
+fn swing(step: usize) -> [f32; ACTION_DIM] {
+    let mut a = NEUTRAL;
+    a[action_turn(0)] = if (step / 100).is_multiple_of(2) { 1.0 } else { -1.0 };
+    a
+}
+
+#[test]
+fn spins_are_counted_and_cost_the_penalty_or_end_the_episode_by_rule() {
+    let (mut off, mut penalty) = (
+        env_with(swinging_table(SpinRule::Off)),
+        env_with(swinging_table(SpinRule::Penalty)),
+    );
+    let mut spins = 0;
+    for step in 0..600 {
+        let a = swing(step);
+        let (_, t_off) = off.step(&a).unwrap();
+        let (_, t_pen) = penalty.step(&a).unwrap();
+        assert_eq!(
+            t_off.info.spins, t_pen.info.spins,
+            "the rule changes no physics"
+        );
+        let new = t_off.info.spins[0] - spins;
+        spins = t_off.info.spins[0];
+        assert!(
+            (t_off.reward - t_pen.reward - 1000.0 * new as f32).abs() < 1e-3,
+            "step {step}: {} vs {} with {new} new spins",
+            t_off.reward,
+            t_pen.reward
+        );
+        assert_eq!(t_off.info.spins[1], 0, "the static black never turns");
+        assert!(t_off.info.end.is_none());
+    }
+    // From neutral to one end (143 degrees: one spin), then five swings end to end of
+    // about 286 degrees (three spins each, the remainder dropped at each turn back).
+    assert_eq!(spins, 16);
+
+    let mut foul = env_with(swinging_table(SpinRule::Foul));
+    let ended = (0..600).find_map(|step| {
+        let (_, t) = foul.step(&swing(step)).unwrap();
+        t.done().then_some((step, t))
+    });
+    let (step, t) = ended.expect("the foul ends the episode");
+    assert_eq!(t.info.end, Some(EndReason::SpinFoul));
+    assert!(t.terminated && !t.truncated);
+    assert_eq!(t.info.spins[0], 1);
+    assert!(step < 100, "the first swing fouls, ended at step {step}");
 }

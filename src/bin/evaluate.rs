@@ -60,14 +60,16 @@ fn head_to_head(
     let table = match_table(player.env(), &rules);
     let me = player.contestant();
     let played = matches::head_to_head(&table, &rules, &me, opponent, matches / 2, seed)?;
-    let mut t = Tally::default();
+    let (mut t, mut o) = (Tally::default(), Tally::default());
     for (on_yellow, r) in &played {
         t.add(r.side(*on_yellow));
+        o.add(r.side(!*on_yellow));
     }
     let [lo, hi] = wilson_points(t.points, f64::from(matches)).ci95;
+    let dt = table.agent_dt();
     Ok(format!(
         "{} against {opponent}: {matches} matches, {}-{}-{} (W-D-L), goals {}:{}, \
-         points share {:.0} % [{:.0}, {:.0}] (95 % Wilson)",
+         points share {:.0} % [{:.0}, {:.0}] (95 % Wilson); spins per minute {:.2} vs {:.2}",
         player.describe(),
         t.wins,
         t.draws,
@@ -76,7 +78,9 @@ fn head_to_head(
         t.let_in,
         100.0 * t.points / f64::from(matches),
         100.0 * lo,
-        100.0 * hi
+        100.0 * hi,
+        t.spins_per_minute(dt),
+        o.spins_per_minute(dt)
     ))
 }
 

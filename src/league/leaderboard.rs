@@ -38,6 +38,8 @@ pub struct Standing {
     pub losses: u32,
     /// Goals scored minus goals let in.
     pub goal_difference: i64,
+    /// Spins of its rods per minute of play ([`foosball_env::spin`]).
+    pub spins_per_minute: f64,
 }
 
 /// Row agent against column agent: points share with its Wilson interval.
@@ -107,6 +109,7 @@ impl Leaderboard {
                     draws: t.draws,
                     losses: t.losses,
                     goal_difference: t.goal_difference(),
+                    spins_per_minute: t.spins_per_minute(league.league.table.agent_dt()),
                 }
             })
             .collect();
@@ -141,12 +144,12 @@ impl Leaderboard {
     /// The standings and the matrix as markdown.
     pub fn to_markdown(&self) -> String {
         let mut s = format!(
-            "| rank | agent | rating (Elo scale, {} = 1000) | 95 % CI | matches | W-D-L | goal difference |\n| --- | --- | --- | --- | --- | --- | --- |\n",
+            "| rank | agent | rating (Elo scale, {} = 1000) | 95 % CI | matches | W-D-L | goal difference | spins per minute |\n| --- | --- | --- | --- | --- | --- | --- | --- |\n",
             self.anchor
         );
         for (k, st) in self.standings.iter().enumerate() {
             s += &format!(
-                "| {} | {} | {:.0} | [{:.0}, {:.0}] | {} | {}-{}-{} | {:+} |\n",
+                "| {} | {} | {:.0} | [{:.0}, {:.0}] | {} | {}-{}-{} | {:+} | {:.2} |\n",
                 k + 1,
                 st.agent,
                 st.rating,
@@ -156,7 +159,8 @@ impl Leaderboard {
                 st.wins,
                 st.draws,
                 st.losses,
-                st.goal_difference
+                st.goal_difference,
+                st.spins_per_minute
             );
         }
         s += "\nRow against column: the row agent's points share (win 1, draw 0.5) [95 % Wilson interval].\n\n| | ";
@@ -261,7 +265,7 @@ impl Leaderboard {
             .enumerate()
             .map(|(k, s)| {
                 format!(
-                    "<tr><td>{}</td><td>{}</td><td>{:.0}</td><td>{:.0} – {:.0}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:+}</td></tr>\n",
+                    "<tr><td>{}</td><td>{}</td><td>{:.0}</td><td>{:.0} – {:.0}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:+}</td><td>{:.2}</td></tr>\n",
                     k + 1,
                     escape(&s.agent),
                     s.rating,
@@ -271,7 +275,8 @@ impl Leaderboard {
                     s.wins,
                     s.draws,
                     s.losses,
-                    s.goal_difference
+                    s.goal_difference,
+                    s.spins_per_minute
                 )
             })
             .collect();
@@ -290,7 +295,7 @@ th.sorted::after {{ content: " ▾"; }}
 <h1>foosball-rl leaderboard</h1>
 <p>Bradley–Terry ratings on the Elo scale ({anchor} pinned at 1000), 95 % bootstrap intervals over matches;
 {mpp} matches per pair, sides swapped. Click a heading to sort.</p>
-<table id="board"><thead><tr><th>rank</th><th>agent</th><th>rating</th><th>95 % CI</th><th>matches</th><th>wins</th><th>draws</th><th>losses</th><th>goal difference</th></tr></thead>
+<table id="board"><thead><tr><th>rank</th><th>agent</th><th>rating</th><th>95 % CI</th><th>matches</th><th>wins</th><th>draws</th><th>losses</th><th>goal difference</th><th>spins per minute</th></tr></thead>
 <tbody>
 {rows}</tbody></table>
 <h2>Head to head</h2>

@@ -49,20 +49,29 @@ pub struct MatchRecord {
     pub result: MatchResult,
 }
 
-const HEADER: &str = "yellow,black,round,yellow_goals,black_goals,steps,serves";
+const HEADER: &str =
+    "yellow,black,round,yellow_goals,black_goals,steps,serves,yellow_spins,black_spins";
 
 impl MatchRecord {
     fn line(&self) -> String {
         let r = &self.result;
         format!(
-            "{},{},{},{},{},{},{}",
-            self.yellow, self.black, self.round, r.yellow_goals, r.black_goals, r.steps, r.serves
+            "{},{},{},{},{},{},{},{},{}",
+            self.yellow,
+            self.black,
+            self.round,
+            r.yellow_goals,
+            r.black_goals,
+            r.steps,
+            r.serves,
+            r.yellow_spins,
+            r.black_spins
         )
     }
 
     fn parse(line: &str) -> Option<Self> {
         let f: Vec<&str> = line.split(',').collect();
-        let [yellow, black, round, yg, bg, steps, serves] = f.as_slice() else {
+        let [yellow, black, round, yg, bg, steps, serves, ys, bs] = f.as_slice() else {
             return None;
         };
         Some(Self {
@@ -74,6 +83,8 @@ impl MatchRecord {
                 black_goals: bg.parse().ok()?,
                 steps: steps.parse().ok()?,
                 serves: serves.parse().ok()?,
+                yellow_spins: ys.parse().ok()?,
+                black_spins: bs.parse().ok()?,
             },
         })
     }

@@ -77,6 +77,12 @@ pub struct MatchResult {
     pub steps: u64,
     /// Serves (kick-offs and dead-ball serves).
     pub serves: u32,
+    /// Spins of yellow's rods ([`foosball_env::spin`]); no rule punishes them in a match.
+    #[serde(default)]
+    pub yellow_spins: u32,
+    /// Spins of black's rods.
+    #[serde(default)]
+    pub black_spins: u32,
 }
 
 impl MatchResult {
@@ -87,10 +93,10 @@ impl MatchResult {
 
     /// The match as one side saw it (`yellow`: yellow's side, else black's).
     pub fn side(&self, yellow: bool) -> SideResult {
-        let (scored, let_in) = if yellow {
-            (self.yellow_goals, self.black_goals)
+        let (scored, let_in, spins) = if yellow {
+            (self.yellow_goals, self.black_goals, self.yellow_spins)
         } else {
-            (self.black_goals, self.yellow_goals)
+            (self.black_goals, self.yellow_goals, self.black_spins)
         };
         let points = match scored.cmp(&let_in) {
             std::cmp::Ordering::Greater => 1.0,
@@ -101,6 +107,8 @@ impl MatchResult {
             scored,
             let_in,
             points,
+            spins,
+            steps: self.steps,
         }
     }
 }
@@ -114,6 +122,10 @@ pub struct SideResult {
     pub let_in: u32,
     /// Its points: 1 for a win, 0.5 for a draw, 0 for a loss.
     pub points: f64,
+    /// Spins of its rods.
+    pub spins: u32,
+    /// Agent steps the match lasted.
+    pub steps: u64,
 }
 
 /// One side's matches added up.
@@ -133,6 +145,10 @@ pub struct Tally {
     pub let_in: u64,
     /// Points: a win 1, a draw 0.5.
     pub points: f64,
+    /// Spins of its rods.
+    pub spins: u64,
+    /// Agent steps played.
+    pub steps: u64,
 }
 
 impl Tally {
@@ -142,6 +158,8 @@ impl Tally {
         self.scored += u64::from(s.scored);
         self.let_in += u64::from(s.let_in);
         self.points += s.points;
+        self.spins += u64::from(s.spins);
+        self.steps += s.steps;
         match s.scored.cmp(&s.let_in) {
             std::cmp::Ordering::Greater => self.wins += 1,
             std::cmp::Ordering::Equal => self.draws += 1,
@@ -152,6 +170,11 @@ impl Tally {
     /// Goals scored minus goals let in.
     pub fn goal_difference(&self) -> i64 {
         self.scored as i64 - self.let_in as i64
+    }
+
+    /// Spins per minute of play, on a table whose agent step lasts `agent_dt` seconds.
+    pub fn spins_per_minute(&self, agent_dt: f32) -> f64 {
+        self.spins as f64 / (self.steps as f64 * f64::from(agent_dt) / 60.0)
     }
 }
 
@@ -217,6 +240,7 @@ pub fn play_match(
     while result.steps < limit && result.yellow_goals.max(result.black_goals) < rules.goals_to_win {
         let mut obs = env.reset(Some(derive_seed(seed, MATCHES, u64::from(result.serves))));
         result.serves += 1;
+        let mut spins = [0; 2];
         while result.steps < limit {
             let mut action = act(&obs);
             action.resize(ACTION_DIM, 0.0);
@@ -227,6 +251,7 @@ pub fn play_match(
             let (next, t) = env.step(&action).map_err(|e| e.to_string())?;
             result.steps += 1;
             obs = next;
+            spins = t.info.spins;
             match t.info.end {
                 Some(EndReason::Scored) => result.yellow_goals += 1,
                 Some(EndReason::Conceded) => result.black_goals += 1,
@@ -236,6 +261,8 @@ pub fn play_match(
                 break;
             }
         }
+        result.yellow_spins += spins[0];
+        result.black_spins += spins[1];
     }
     Ok(result)
 }

@@ -8,7 +8,8 @@
 //! | tag | value over the window |
 //! | --- | --- |
 //! | `rollout/ep_return_mean`, `rollout/ep_length_mean`, `rollout/score_rate`, `rollout/episodes` | training episodes that ended |
-//! | `rollout/end_<reason>` | share of those episodes that ended for `<reason>` (scored, conceded, stagnant, no_progress, time_limit, physics_fault) |
+//! | `rollout/end_<reason>` | share of those episodes that ended for `<reason>` (scored, conceded, stagnant, no_progress, time_limit, physics_fault, spin_foul) |
+//! | `rollout/spins_per_minute` | spins of the learner's rods ([`foosball_env::spin`]) per minute of those episodes' play |
 //! | `train/<name>` | the algorithm's metrics (losses, entropy, alpha, ...), averaged |
 //! | `time/steps_per_second`, `time/updates_per_second` | env steps and gradient steps per second |
 //!
@@ -148,6 +149,7 @@ struct TrainingEpisode {
     episode: Episode,
     scored: bool,
     end: Option<EndReason>,
+    spins: u32,
 }
 
 /// End-reason shares ([`crate::play::metrics::end_shares`]) as scalars `<prefix>/end_<reason>`
@@ -173,6 +175,7 @@ pub struct RunLog {
     window_start: Instant,
     window_env_steps: u64,
     window_gradient_steps: u64,
+    agent_dt: f32,
 }
 
 impl RunLog {
@@ -180,11 +183,13 @@ impl RunLog {
     /// [`CSV_FILES`] order; zeros for a fresh run) and a new TensorBoard event file. A
     /// run resumed from a checkpoint at env step `resumed_at` marks the restart there, so
     /// TensorBoard drops what the interrupted process logged after the checkpoint.
+    /// `agent_dt`: seconds of play per agent step (for rates per minute).
     pub fn open(
         run_dir: &Path,
         csv_bytes: &[u64],
         resumed_at: Option<u64>,
         (env_steps, gradient_steps): (u64, u64),
+        agent_dt: f32,
     ) -> Result<Self, RunFileError> {
         for (name, &len) in CSV_FILES.iter().zip(csv_bytes) {
             cut_file(&run_dir.join(name), len)?;
@@ -207,6 +212,7 @@ impl RunLog {
             window_start: Instant::now(),
             window_env_steps: env_steps,
             window_gradient_steps: gradient_steps,
+            agent_dt,
         })
     }
 
@@ -233,6 +239,7 @@ impl RunLog {
             episode,
             scored: info.scored(),
             end: info.end,
+            spins: info.spins[0],
         });
     }
 
@@ -270,6 +277,11 @@ impl RunLog {
                 sum(|e| f64::from(u8::from(e.scored))) / n,
             ));
             rows.push(("rollout/episodes".into(), n));
+            let minutes = sum(|e| e.episode.len as f64) * f64::from(self.agent_dt) / 60.0;
+            rows.push((
+                "rollout/spins_per_minute".into(),
+                sum(|e| f64::from(e.spins)) / minutes,
+            ));
             let shares = end_shares(self.episodes.iter().filter_map(|e| e.end));
             rows.extend(end_rows("rollout", &shares));
         }

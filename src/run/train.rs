@@ -224,6 +224,7 @@ pub fn train(
             &state.log_bytes,
             (start == Start::Resume).then_some(agent.env_steps()),
             (agent.env_steps(), agent.gradient_steps()),
+            config.env.agent_dt(),
         )?;
         let n = p.envs;
         let mut self_play = match &config.self_play {

@@ -449,6 +449,9 @@ pub struct RewardConfig {
     /// The `alpha - d` term is 0 while the ball is in black's goal, which then pays
     /// `beta` alone (the reference code's rule; default false).
     pub zero_shaping_in_goal: bool,
+    /// Reward lost per spin of a yellow rod under `rules.spin = "penalty"` or `"foul"`
+    /// (default 1000, a goal's worth).
+    pub spin_penalty: f32,
 }
 
 impl Default for RewardConfig {
@@ -461,6 +464,7 @@ impl Default for RewardConfig {
             goal_line_y: GOAL_LINE_Y,
             own_goal_line_y: GOAL_LINE_Y,
             zero_shaping_in_goal: false,
+            spin_penalty: 1000.0,
         }
     }
 }
@@ -479,6 +483,11 @@ pub struct EpisodeRules {
     /// A goal (either side) ends the episode (default false: the paper's and its code's
     /// episodes go on with the ball in the goal).
     pub end_on_goal: bool,
+    /// What a spin of one of yellow's rods costs ([`crate::spin`]; default `off`, as in
+    /// the paper: spins are counted in the info, nothing more).
+    pub spin: SpinRule,
+    /// Rotation in one direction that makes a spin, degrees (default 360, ITSF's).
+    pub spin_limit_deg: f32,
 }
 
 impl Default for EpisodeRules {
@@ -488,8 +497,23 @@ impl Default for EpisodeRules {
             stagnant_steps: 10,
             no_progress_steps: 15,
             end_on_goal: false,
+            spin: SpinRule::Off,
+            spin_limit_deg: 360.0,
         }
     }
+}
+
+/// The spinning rule for yellow (the learner).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SpinRule {
+    /// Spins are counted, not punished.
+    #[default]
+    Off,
+    /// Each spin costs `reward.spin_penalty`.
+    Penalty,
+    /// A spin is a foul: it costs `reward.spin_penalty` and ends the episode (the point).
+    Foul,
 }
 
 /// Ball start: at rest on the playfield at x ~ N(x_mean, x_std²), y ~ N(y_mean, y_std²),
@@ -745,6 +769,8 @@ impl FoosballConfig {
         finite("reward.alpha", self.reward.alpha)?;
         finite("reward.beta", self.reward.beta)?;
         finite("reward.conceded_penalty", self.reward.conceded_penalty)?;
+        finite("reward.spin_penalty", self.reward.spin_penalty)?;
+        positive("rules.spin_limit_deg", self.rules.spin_limit_deg)?;
         finite("reward.goal[0]", self.reward.goal[0])?;
         finite("reward.goal[1]", self.reward.goal[1])?;
         finite("reward.own_goal_line_y", self.reward.own_goal_line_y)?;

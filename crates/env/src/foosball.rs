@@ -16,7 +16,7 @@ use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
 use crate::EnvRng;
-use crate::config::{ActionMap, BallFrame, ConfigError, EpisodeRules, FoosballConfig};
+use crate::config::{ActionMap, BallFrame, ConfigError, EpisodeRules, FoosballConfig, SpinRule};
 use crate::env::{Env, EnvError, Transition, check_action};
 use crate::geometry::{self, NUM_RODS};
 use crate::layout::{
@@ -27,7 +27,11 @@ use crate::observation::{FrameStack, ObservationKind};
 use crate::opponent::Opponent;
 use crate::render::{Frame, Renderer};
 use crate::roster::opponent_for;
+use crate::spin::SpinMeter;
 use crate::table::{PhysicsParams, Table};
+
+/// Rods per side: yellow's are the first four of the state's rod blocks.
+const SIDE_RODS: usize = NUM_RODS / 2;
 
 /// Why an episode ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -45,17 +49,20 @@ pub enum EndReason {
     TimeLimit,
     /// Non-finite physics state or ball out of the table (truncated).
     PhysicsFault,
+    /// One of yellow's rods spun under `rules.spin = "foul"` (terminated).
+    SpinFoul,
 }
 
 impl EndReason {
     /// Every reason, in a fixed order (for tallies).
-    pub const ALL: [EndReason; 6] = [
+    pub const ALL: [EndReason; 7] = [
         EndReason::Scored,
         EndReason::Conceded,
         EndReason::Stagnant,
         EndReason::NoProgress,
         EndReason::TimeLimit,
         EndReason::PhysicsFault,
+        EndReason::SpinFoul,
     ];
 
     /// Its name in logs (snake case).
@@ -67,6 +74,7 @@ impl EndReason {
             EndReason::NoProgress => "no_progress",
             EndReason::TimeLimit => "time_limit",
             EndReason::PhysicsFault => "physics_fault",
+            EndReason::SpinFoul => "spin_foul",
         }
     }
 
@@ -96,6 +104,8 @@ pub struct FoosballInfo {
     pub episode_scored: bool,
     /// The ball has been in yellow's goal at some step of this episode, this one included.
     pub episode_conceded: bool,
+    /// Spins ([`crate::spin`]) of yellow's rods and of black's in this episode so far.
+    pub spins: [u32; 2],
 }
 
 impl FoosballInfo {
@@ -140,6 +150,8 @@ struct Episode {
     /// Noise-free observation after the last step.
     state: [f32; OBS_DIM],
     over: bool,
+    spin: SpinMeter,
+    spins: [u32; 2],
 }
 
 /// The foosball table as a reinforcement-learning environment (see the module docs).
@@ -421,6 +433,8 @@ impl Env for FoosballEnv {
             pending: VecDeque::new(),
             state,
             over: false,
+            spin: SpinMeter::new(&state[ROD_ANGLE]),
+            spins: [0; 2],
         });
         self.emit(&state, obs, true);
     }
@@ -488,7 +502,22 @@ impl Env for FoosballEnv {
             ep.no_progress_steps + 1
         };
         ep.prev_ball_y = y;
-        let rule_end = if ep.stagnant_steps >= rules.stagnant_steps {
+        let spun = ep
+            .spin
+            .update(&state[ROD_ANGLE], rules.spin_limit_deg.to_radians());
+        let count = |rods: &[bool]| rods.iter().filter(|&&s| s).count() as u32;
+        let yellow_spins = count(&spun[..SIDE_RODS]);
+        ep.spins[0] += yellow_spins;
+        ep.spins[1] += count(&spun[SIDE_RODS..]);
+        let spin_penalty = match rules.spin {
+            SpinRule::Off => 0.0,
+            SpinRule::Penalty | SpinRule::Foul => {
+                yellow_spins as f32 * self.config.reward.spin_penalty
+            }
+        };
+        let rule_end = if rules.spin == SpinRule::Foul && yellow_spins > 0 {
+            Some(EndReason::SpinFoul)
+        } else if ep.stagnant_steps >= rules.stagnant_steps {
             Some(EndReason::Stagnant)
         } else if ep.no_progress_steps >= rules.no_progress_steps {
             Some(EndReason::NoProgress)
@@ -501,6 +530,7 @@ impl Env for FoosballEnv {
         ep.state = state;
         ep.over = end.is_some();
         let steps = ep.steps;
+        let spins = ep.spins;
 
         let (in_goal, in_own_goal) = goals(state[BALL_POS.start], y, line_y, own_line_y);
         ep.scored |= in_goal;
@@ -519,6 +549,7 @@ impl Env for FoosballEnv {
         if in_own_goal {
             reward -= rw.conceded_penalty;
         }
+        reward -= spin_penalty;
         self.emit(&state, obs, false);
         Ok(Transition {
             reward,
@@ -533,6 +564,7 @@ impl Env for FoosballEnv {
                 in_own_goal,
                 episode_scored,
                 episode_conceded,
+                spins,
             },
         })
     }

@@ -9,7 +9,7 @@
 //! - [`render`]: top-down RGB frames of a table state (Gymnasium's `rgb_array`);
 //!   [`observation`]: the state or stacked frames of it as what the agent sees.
 //! - [`scripted`]: hand-written shooter and dribbler, the yardsticks for learners;
-//!   [`roster`]: the built-in opponents by name.
+//!   [`roster`]: the built-in opponents by name; [`spin`]: spinning rods counted.
 //! - [`config`]: the table's settings and presets, refused by key ([`config_error`]).
 //! - [`geometry`] and [`layout`]: the table's numbers and the observation/action index
 //!   table; [`seeding`]: how every random stream derives from one run seed.
@@ -31,6 +31,7 @@ pub mod roster;
 pub mod scripted;
 pub mod seeding;
 pub mod servo;
+pub mod spin;
 pub mod table;
 pub mod vec_env;
 

@@ -21,8 +21,8 @@ pub fn obs_shape(config: &FoosballConfig) -> Vec<usize> {
 
 /// One step's details: `end` (the end reason's name, or None while the episode runs),
 /// `goal_distance` (cm), `ball_speed` (cm/s), `steps`, `in_goal`, `in_own_goal`,
-/// `scored` and `conceded` (so far in the episode); `episode` (see [`stats_dict`]) on its
-/// last step.
+/// `scored` and `conceded` (so far in the episode), `spins` (yellow's and black's rods'
+/// spins so far, `[2]`); `episode` (see [`stats_dict`]) on its last step.
 pub fn info_dict<'py>(
     py: Python<'py>,
     info: &FoosballInfo,
@@ -37,6 +37,7 @@ pub fn info_dict<'py>(
     d.set_item("in_own_goal", info.in_own_goal)?;
     d.set_item("scored", info.episode_scored)?;
     d.set_item("conceded", info.episode_conceded)?;
+    d.set_item("spins", info.spins.to_vec())?;
     if let Some(stats) = stats {
         d.set_item("episode", stats_dict(py, stats)?)?;
     }

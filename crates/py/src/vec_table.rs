@@ -138,7 +138,7 @@ impl VecTable {
     /// Steps every table with its row of `actions` (float32 `[num_envs, 8]`), the GIL
     /// released. Returns `(obs, rewards, terminated, truncated, infos, ended)`: `infos` a
     /// dict of `[num_envs]` arrays (`goal_distance`, `ball_speed`, `steps`, `in_goal`,
-    /// `in_own_goal`, `scored`, `conceded`); `ended` None, or where an episode ended on
+    /// `in_own_goal`, `scored`, `conceded`; `spins` `[num_envs, 2]`); `ended` None, or where an episode ended on
     /// this step a dict with `done` (mask), `end` (reason names, None where running),
     /// `final_obs` (zeros where running) and the episode metrics as arrays (`return`, `length`, `scored`,
     /// `mean_goal_distance`, `mean_ball_speed`, `final_goal_distance`; 0 where running).
@@ -180,6 +180,8 @@ impl VecTable {
             infos.set_item("in_own_goal", array(py, &flag(|i| i.in_own_goal), &[n])?)?;
             infos.set_item("scored", array(py, &flag(|i| i.episode_scored), &[n])?)?;
             infos.set_item("conceded", array(py, &flag(|i| i.episode_conceded), &[n])?)?;
+            let spins: Vec<u32> = b.infos.iter().flat_map(|i| i.spins).collect();
+            infos.set_item("spins", array(py, &spins, &[n, 2])?)?;
             let ended = if b.ended.iter().any(Option::is_some) {
                 Some(self.ended_dict(py)?)
             } else {

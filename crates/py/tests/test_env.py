@@ -76,8 +76,9 @@ def test_the_last_step_reports_the_end_and_the_episode_metrics():
     assert ep["mean_ball_speed"] == pytest.approx(np.mean(speeds), rel=1e-6, abs=1e-9)
     assert ep["final_goal_distance"] == pytest.approx(distances[-1])
     assert ep["scored"] is False
-    # A zero policy never touches the ball: the start ball stagnates.
+    # A zero policy never touches the ball: the start ball stagnates; no rod spins.
     assert info["end"] == "stagnant"
+    assert info["spins"] == [0, 0]
 
 
 def test_render_draws_the_table():
