@@ -112,6 +112,12 @@ pub struct Protocol {
     pub threads: usize,
     /// Network backend; the default CPU backend when absent.
     pub backend: Option<Backend>,
+    /// Networks to start from instead of fresh ones: a run's saved networks,
+    /// `DIR[@best|@last]` (default last), trained with the same algorithm, network shapes,
+    /// observation, ball frame and action map. Optimiser, buffer and counters start
+    /// fresh (fine-tuning, e.g. self-play from a trained agent). Absent: fresh networks.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub init_from: Option<String>,
 }
 
 impl Protocol {
@@ -135,6 +141,7 @@ impl Default for Protocol {
             envs: 1,
             threads: 0,
             backend: None,
+            init_from: None,
         }
     }
 }
@@ -407,6 +414,8 @@ pub struct Overrides {
     pub hidden: Option<Vec<usize>>,
     /// `env`, replaced whole (e.g. by a preset's values).
     pub env: Option<FoosballConfig>,
+    /// `protocol.init_from`.
+    pub init_from: Option<String>,
 }
 
 /// A configuration that could not be used; `Display` names the file, line and key.
@@ -483,6 +492,9 @@ impl RunConfig {
         p.steps_per_epoch = o.steps_per_epoch.unwrap_or(p.steps_per_epoch);
         p.envs = o.envs.unwrap_or(p.envs);
         p.threads = o.threads.unwrap_or(p.threads);
+        if let Some(init) = &o.init_from {
+            p.init_from = Some(init.clone());
+        }
         if let Some(hidden) = &o.hidden {
             c.algorithm.net_mut().hidden = hidden.clone();
         }

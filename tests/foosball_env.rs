@@ -358,7 +358,11 @@ fn swinging_table(spin: SpinRule) -> FoosballConfig {
 /// Yellow's goalie swung from one end of its range to the other every 100 steps.
 fn swing(step: usize) -> [f32; ACTION_DIM] {
     let mut a = NEUTRAL;
-    a[action_turn(0)] = if (step / 100).is_multiple_of(2) { 1.0 } else { -1.0 };
+    a[action_turn(0)] = if (step / 100).is_multiple_of(2) {
+        1.0
+    } else {
+        -1.0
+    };
     a
 }
 

@@ -1,6 +1,8 @@
 //! Self-play training: the pool fills with snapshots on schedule, every training episode
 //! is recorded against the opponent it was drawn, snapshots play as contestants, a run is
-//! the same on one thread or two, and bad settings are refused by key.
+//! the same on one thread or two, and bad settings are refused by key; a run starts from
+//! saved networks (`protocol.init_from`, the way to fine-tune a trained agent by
+//! self-play).
 
 mod common;
 
@@ -154,4 +156,61 @@ fn bad_self_play_settings_are_refused_by_key() {
             .to_string();
         assert!(err.contains(key), "{section}: {err}");
     }
+}
+
+/// `protocol.init_from` starts a run from another run's saved networks: with no update
+/// (learning starts after the run's end) its test is the saved run's, byte for byte; an
+/// algorithm or network shape that differs is refused by key.
+#[test]
+fn a_run_starts_from_saved_networks_and_refuses_ones_that_do_not_fit() {
+    let dir = scratch("init-from");
+    let (saved, tuned) = (dir.join("saved"), dir.join("tuned"));
+    for d in [&saved, &tuned] {
+        std::fs::create_dir_all(d).unwrap();
+    }
+    let text = tiny_config_text("sac", 1, 200);
+    let c = RunConfig::from_toml(&text, Path::new("tiny.toml")).unwrap();
+    train(&c, &saved, Start::Fresh, |_| {}).unwrap();
+    let text = text
+        .replace("learning_starts = 50", "learning_starts = 100000")
+        .replace(
+            "[protocol]\n",
+            &format!("[protocol]\ninit_from = \"{}@last\"\n", saved.display()),
+        );
+    let c = RunConfig::from_toml(&text, Path::new("tuned.toml")).unwrap();
+    train(&c, &tuned, Start::Fresh, |_| {}).unwrap();
+    let metrics = |run: &Path| std::fs::read(run.join("test/metrics.json")).unwrap();
+    assert!(
+        metrics(&saved) == metrics(&tuned),
+        "the test differs from the saved run's"
+    );
+    // Without init_from the same frozen run tests other (fresh) networks.
+    let fresh = dir.join("fresh");
+    std::fs::create_dir_all(&fresh).unwrap();
+    let mut c2 = c.clone();
+    c2.protocol.init_from = None;
+    train(&c2, &fresh, Start::Fresh, |_| {}).unwrap();
+    assert!(metrics(&saved) != metrics(&fresh));
+
+    for (algo, hidden, why) in [
+        ("td3", "[16]", "it trained sac, this run trains td3"),
+        ("sac", "[8]", "[16] wide, this run's [8]"),
+    ] {
+        let mut c = RunConfig::from_toml(
+            &tiny_config_text(algo, 1, 200).replace("hidden = [16]", &format!("hidden = {hidden}")),
+            Path::new("other.toml"),
+        )
+        .unwrap();
+        c.protocol.init_from = Some(format!("{}@best", saved.display()));
+        let run = dir.join(format!("refused-{algo}"));
+        std::fs::create_dir_all(&run).unwrap();
+        let err = train(&c, &run, Start::Fresh, |_| {})
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("protocol.init_from") && err.contains(why),
+            "{err}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -142,6 +142,7 @@ fn spec(args: &Args) -> Result<SweepSpec, String> {
             threads: Some(args.threads_per_run),
             hidden: args.hidden.clone(),
             env,
+            init_from: None,
         };
         runs.push(RunConfig::load_with(&path, Some(algo), &overrides)?);
     }

@@ -38,6 +38,10 @@ struct Args {
     /// Hidden layer widths of every network, e.g. `256,256` (overrides `<algo>.net.hidden`).
     #[arg(long, value_delimiter = ',')]
     hidden: Option<Vec<usize>>,
+    /// Start from a run's saved networks, `DIR[@best|@last]` (overrides
+    /// `protocol.init_from`): fine-tuning with a fresh optimiser and buffer.
+    #[arg(long, value_name = "NETWORKS")]
+    init_from: Option<String>,
     /// Rollout workers (overrides `protocol.envs`).
     #[arg(long)]
     envs: Option<usize>,
@@ -53,7 +57,8 @@ struct Args {
     /// Go on from the last checkpoint of this run directory (its own `config.toml`;
     /// only `--threads` may be changed, which does not change the results).
     #[arg(long, value_name = "RUN", conflicts_with_all = [
-        "algo", "config", "seed", "epochs", "steps_per_epoch", "hidden", "envs", "out", "force"
+        "algo", "config", "seed", "epochs", "steps_per_epoch", "hidden", "init_from", "envs", "out",
+        "force"
     ])]
     resume: Option<PathBuf>,
 }
@@ -72,6 +77,7 @@ fn config(args: &Args) -> Result<RunConfig, String> {
         threads: args.threads,
         hidden: args.hidden.clone(),
         env: None,
+        init_from: args.init_from.clone(),
     };
     RunConfig::load_with(&path, args.algo, &overrides)
 }

@@ -129,7 +129,7 @@ impl Contestant {
 
 /// Whether a policy trained on `trained` reads and writes `table`'s observations and
 /// actions alike: the state observation, the same ball frame and action map.
-fn fits(trained: &FoosballConfig, table: &FoosballConfig) -> Result<(), String> {
+pub fn fits(trained: &FoosballConfig, table: &FoosballConfig) -> Result<(), String> {
     if trained.observation.kind != ObservationKind::State {
         return Err("it sees images; matches are played on the state observation".into());
     }

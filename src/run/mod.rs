@@ -24,6 +24,7 @@
 //!
 //! - [`train`]: the training loop, its events and its error;
 //! - [`checkpoint`]: resumable checkpoints at epoch ends;
+//! - [`init`]: networks to start from (`protocol.init_from`, fine-tuning);
 //! - [`log`]: training logs (CSV and TensorBoard);
 //! - [`budget`]: memory and time a run will need, told before it starts;
 //! - [`lock`]: one process at a time trains a run directory;
@@ -31,6 +32,7 @@
 
 pub mod budget;
 pub mod checkpoint;
+pub mod init;
 pub mod interrupt;
 pub mod lock;
 pub mod log;

@@ -3,6 +3,7 @@
 //! (resumable), then the test phase.
 
 use super::checkpoint::{self, CheckpointError, LoopState};
+use super::init::init_networks;
 use super::interrupt;
 use super::lock::{LockError, RunLock};
 use super::log::{CSV_FILES, RunLog, Speed};
@@ -52,6 +53,9 @@ pub enum TrainError {
     /// `--resume` on a directory without a checkpoint.
     #[error("{0}: no checkpoint to resume from (none is written before the first epoch ends)")]
     NoCheckpoint(PathBuf),
+    /// `protocol.init_from` names networks that cannot start this run.
+    #[error("{0}")]
+    Init(String),
     /// Self-play's pool could not be saved, loaded or written.
     #[error(transparent)]
     SelfPlay(#[from] SelfPlayError),
@@ -200,6 +204,7 @@ pub fn train(
                 checkpoint::load(&dir, agent.as_mut())?
             }
             Start::Fresh => {
+                init_networks(config, agent.as_mut()).map_err(TrainError::Init)?;
                 clear_run_dir(run_dir)?;
                 write_atomic(&run_dir.join("config.toml"), config.to_toml().as_bytes())?;
                 LoopState {

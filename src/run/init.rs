@@ -1,0 +1,47 @@
+//! Where a run's networks start: fresh from the learner stream, or a run's saved networks
+//! (`protocol.init_from = "DIR[@best|@last]"`) for fine-tuning.
+
+use crate::config::{RunConfig, TestActions};
+use crate::play::contestant::{Contestant, fits};
+use foosball_algos::Agent;
+
+/// Loads the networks `config.protocol.init_from` names into `agent` (nothing when
+/// unset). The saved run must have been trained with the same algorithm, hidden widths,
+/// observation, ball frame and action map; a refusal names the key, the run and what
+/// differs.
+pub fn init_networks(config: &RunConfig, agent: &mut dyn Agent) -> Result<(), String> {
+    let Some(spec) = &config.protocol.init_from else {
+        return Ok(());
+    };
+    let refuse = |why: String| format!("protocol.init_from = \"{spec}\": {why}");
+    let (dir, checkpoint) = match spec.parse::<Contestant>().map_err(refuse)? {
+        Contestant::Run {
+            dir,
+            checkpoint,
+            actions: TestActions::Deterministic,
+        } => (dir, checkpoint),
+        _ => return Err(refuse("not a run's networks, `DIR[@best|@last]`".into())),
+    };
+    let saved = RunConfig::load_run(&dir).map_err(|e| refuse(e.to_string()))?;
+    if saved.algo() != config.algo() {
+        return Err(refuse(format!(
+            "it trained {}, this run trains {}",
+            saved.algo(),
+            config.algo()
+        )));
+    }
+    if saved.hidden() != config.hidden() {
+        return Err(refuse(format!(
+            "its networks are {:?} wide, this run's {:?}",
+            saved.hidden(),
+            config.hidden()
+        )));
+    }
+    if saved.env.observation != config.env.observation {
+        return Err(refuse("it was trained on another observation".into()));
+    }
+    fits(&saved.env, &config.env).map_err(refuse)?;
+    agent
+        .load(&dir.join(checkpoint.name()))
+        .map_err(|e| refuse(e.to_string()))
+}
