@@ -169,6 +169,10 @@ pub struct SelfPlayConfig {
     /// Reward lost per agent step while the ball is in the learner's own goal (black
     /// scored); the own-goal line is black's goal line mirrored, as in matches.
     pub conceded_penalty: f32,
+    /// Keep the table's "no progress" end (default false: off, as in matches, so that
+    /// black's attacks play out; true keeps the paper's episode, where an attack of
+    /// black's ends the episode within `rules.no_progress_steps`).
+    pub no_progress_end: bool,
 }
 
 impl Default for SelfPlayConfig {
@@ -186,6 +190,7 @@ impl Default for SelfPlayConfig {
             ],
             pfsp_power: 2.0,
             conceded_penalty: 1000.0,
+            no_progress_end: false,
         }
     }
 }

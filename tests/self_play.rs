@@ -214,3 +214,28 @@ fn a_run_starts_from_saved_networks_and_refuses_ones_that_do_not_fit() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The learner's table: black's goals count (the own-goal line mirrored), the conceded
+/// penalty as configured, the "no progress" end off unless kept.
+#[test]
+fn the_self_play_table_counts_black_s_goals_and_drops_no_progress_unless_kept() {
+    use foosball_rl::config::SelfPlayConfig;
+    use foosball_rl::self_play::self_play_table;
+    let c = config(1);
+    let sp = SelfPlayConfig {
+        conceded_penalty: 250.0,
+        ..SelfPlayConfig::default()
+    };
+    let t = self_play_table(&c.env, &sp);
+    assert_eq!(t.own_goal_line_world(), -t.goal_line_world());
+    assert_eq!(t.reward.conceded_penalty, 250.0);
+    assert_eq!(t.rules.no_progress_steps, u32::MAX);
+    let kept = self_play_table(
+        &c.env,
+        &SelfPlayConfig {
+            no_progress_end: true,
+            ..sp
+        },
+    );
+    assert_eq!(kept.rules.no_progress_steps, c.env.rules.no_progress_steps);
+}

@@ -10,9 +10,10 @@
 //!   the learner's points share against it so far.
 //! - The learner's table: the run's own, with black's goals counted (the own-goal line is
 //!   black's goal line mirrored, as in matches), `conceded_penalty` lost per step while
-//!   the ball lies in yellow's goal, and no "no progress" end (black attacks the other
-//!   way; with it, an episode ends 15 steps into any attack of black's and the learner
-//!   never sees a goal against it); everything else (reward, other ends) as configured.
+//!   the ball lies in yellow's goal, and no "no progress" end unless `no_progress_end`
+//!   (black attacks the other way; with it, an episode ends 15 steps into any attack of
+//!   black's and the learner never sees a goal against it); everything else (reward,
+//!   other ends) as configured.
 //!   Evaluations and the test still play `env.opponent`, so curves stay comparable.
 //! - Resumable: the checkpoint holds the snapshot list and the records; reproducible:
 //!   the draws come from each environment's own stream and the pool changes only between
@@ -70,11 +71,13 @@ pub struct SelfPlay {
 }
 
 /// `env` as the learner plays it in self-play (module docs): black's goals count against
-/// it, no "no progress" end.
+/// it; no "no progress" end unless `sp.no_progress_end`.
 pub fn self_play_table(env: &FoosballConfig, sp: &SelfPlayConfig) -> FoosballConfig {
     let mut t = symmetric_goals(env);
     t.reward.conceded_penalty = sp.conceded_penalty;
-    t.rules.no_progress_steps = u32::MAX;
+    if !sp.no_progress_end {
+        t.rules.no_progress_steps = u32::MAX;
+    }
     t
 }
 
