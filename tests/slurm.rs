@@ -188,12 +188,21 @@ fn a_slurm_sweep_with_a_task_cancelled_and_requeued_ends_as_a_local_one() {
         &format!("JobId={task}"),
         "StartTime=now",
     ]);
+    // Wait for the requeued task's own word first: squeue answers nothing at all for a
+    // list that holds a job it has already forgotten (the report job may be), so an
+    // empty listing alone does not mean that the requeued task has run.
+    let log_path = cluster.join("slurm/task-3.out");
+    wait_for(
+        "the requeued task to finish",
+        Duration::from_secs(600),
+        || std::fs::read_to_string(&log_path).is_ok_and(|l| l.contains("sac-seed1: finished")),
+    );
     wait_for(
         "every task and the report",
         Duration::from_secs(600),
         || listed(&[&job, &report_job]).is_empty(),
     );
-    let log = std::fs::read_to_string(cluster.join("slurm/task-3.out")).unwrap();
+    let log = std::fs::read_to_string(&log_path).unwrap();
     assert!(
         log.contains("stopped by a signal") && log.contains("sac-seed1: finished"),
         "{log}"
