@@ -1,7 +1,7 @@
 //! Black in a self-play run's training environments: an opponent drawn from the pool at
 //! every reset.
 
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, PoisonError};
 
 use foosball_env::config::ActionMap;
 use foosball_env::layout::{ACTION_DIM, OBS_DIM};
@@ -10,6 +10,14 @@ use foosball_env::{EnvRng, Opponent};
 use rand::Rng;
 
 use super::pool::{Member, Pool};
+use crate::play::matches::PolicyOpponent;
+
+/// Who plays the episode in progress: this environment's own copy of an anchor (its index
+/// in the pool, which lists the anchors first), or a snapshot's shared policy.
+enum Playing {
+    Anchor(usize),
+    Snapshot(Arc<Mutex<PolicyOpponent>>),
+}
 
 /// One environment's black: at each reset it draws two uniforms from the environment's
 /// stream; the opponent they pick is settled at the episode's first step, from the pool
@@ -20,7 +28,7 @@ pub struct PoolOpponent {
     env: usize,
     anchors: Vec<Box<dyn Opponent>>,
     draw: Option<(f64, f64)>,
-    current: Option<Member>,
+    current: Option<Playing>,
 }
 
 impl PoolOpponent {
@@ -41,15 +49,19 @@ impl PoolOpponent {
         }
     }
 
-    /// The opponent of this episode, chosen now if not yet.
-    fn settle(&mut self) -> &Member {
+    /// Chooses the opponent of this episode if not yet done.
+    fn settle(&mut self) {
         if self.current.is_none() {
             let (u, v) = self.draw.take().unwrap_or((0.0, 0.0));
             let index = self.pool.choose(u, v);
             self.pool.play(self.env, index);
-            self.current = Some(self.pool.member(index));
+            self.current = Some(match self.pool.member(index) {
+                Member::Anchor(_) => Playing::Anchor(index),
+                Member::Snapshot { policy, .. } => {
+                    Playing::Snapshot(policy.expect("the pool draws snapshots in play only"))
+                }
+            });
         }
-        self.current.as_ref().expect("settled above")
     }
 }
 
@@ -64,24 +76,13 @@ impl Opponent for PoolOpponent {
         obs: &[f32; OBS_DIM],
         rng: &mut EnvRng,
     ) -> [f32; ACTION_DIM] {
-        match self.settle().clone() {
-            Member::Anchor(kind) => {
-                let i = self
-                    .pool
-                    .config()
-                    .anchors
-                    .iter()
-                    .position(|&k| k == kind)
-                    .expect("an anchor of the pool's own list");
-                self.anchors[i].act_in(map, obs, rng)
-            }
-            Member::Snapshot { policy, .. } => match policy {
-                Some(p) => p
-                    .lock()
-                    .unwrap_or_else(std::sync::PoisonError::into_inner)
-                    .act_in(map, obs, rng),
-                None => [0.0; ACTION_DIM],
-            },
+        self.settle();
+        match self.current.as_ref().expect("settled above") {
+            Playing::Anchor(i) => self.anchors[*i].act_in(map, obs, rng),
+            Playing::Snapshot(p) => p
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .act_in(map, obs, rng),
         }
     }
 

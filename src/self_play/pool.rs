@@ -42,8 +42,9 @@ impl Record {
 /// Who an entry of the pool is.
 #[derive(Clone)]
 pub enum Member {
-    /// A built-in black policy; each environment plays its own copy (index into the
-    /// anchors every [`super::opponent::PoolOpponent`] builds).
+    /// A built-in black policy; each environment plays its own copy (the anchors are the
+    /// pool's first entries, in `anchors` order, as every
+    /// [`super::opponent::PoolOpponent`] builds its copies).
     Anchor(OpponentKind),
     /// The learner's networks at env step `step`, shared by the environments (a
     /// deterministic policy, so who calls it first changes nothing).
