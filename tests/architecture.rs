@@ -1,7 +1,9 @@
 //! Imports run one way: in every crate of the workspace, no module imports (through
 //! `crate::` or `super::` paths, outside comments) a module that imports it back, file by
 //! file; and in the root package the layers of `src/lib.rs` hold: no group (`play`, `run`,
-//! `sweep`, `report`, ...) reaches a group that reaches it back.
+//! `sweep`, `report`, ...) reaches a group that reaches it back. And tensor values are
+//! read back to the host in one place only, `foosball_nets::host`, which counts the
+//! reads (a GPU training step is tested to make none).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -234,6 +236,36 @@ fn the_root_package_s_layers_import_one_way() {
     ] {
         assert!(!uses(a, b), "{a} imports {b}");
     }
+}
+
+#[test]
+fn tensors_are_read_back_through_the_counted_host_module_only() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut offenders = Vec::new();
+    for src in [
+        "src",
+        "crates/env/src",
+        "crates/nets/src",
+        "crates/algos/src",
+    ] {
+        for file in sources(&root.join(src)) {
+            if file.ends_with("crates/nets/src/host.rs") {
+                continue;
+            }
+            let text = std::fs::read_to_string(&file).unwrap();
+            // Unit tests read freely; the library code above them may not.
+            let library = text.split("#[cfg(test)]").next().unwrap();
+            for read in ["into_data(", "to_data(", "into_scalar", "Transaction"] {
+                if code(library).contains(read) {
+                    offenders.push(format!("{}: {read}", file.display()));
+                }
+            }
+        }
+    }
+    assert!(
+        offenders.is_empty(),
+        "reads outside foosball_nets::host: {offenders:?}"
+    );
 }
 
 #[test]

@@ -87,6 +87,10 @@ pub fn time_budget(config: &RunConfig) -> Result<TimeBudget, TrainError> {
         });
         let before = (Instant::now(), agent.gradient_steps());
         agent.update(1.0);
+        // A GPU update only queues its work (it reads nothing back): wait for it.
+        device
+            .sync()
+            .map_err(|e| TrainError::Device(e.to_string()))?;
         let steps = agent.gradient_steps() - before.1;
         if steps > 0 {
             fastest = fastest.min(before.0.elapsed().as_secs_f64() / steps as f64);

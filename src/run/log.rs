@@ -285,7 +285,7 @@ impl RunLog {
             let shares = end_shares(self.episodes.iter().filter_map(|e| e.end));
             rows.extend(end_rows("rollout", &shares));
         }
-        for (name, value) in Metrics::mean(&self.updates).0 {
+        for (name, value) in Metrics::mean(std::mem::take(&mut self.updates)).read() {
             rows.push((format!("train/{name}"), value));
         }
         rows.push(("time/steps_per_second".into(), speed.steps_per_second));

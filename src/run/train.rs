@@ -35,6 +35,9 @@ pub enum TrainError {
     /// An environment refused its settings or an action.
     #[error("environment: {0}")]
     Env(String),
+    /// The network backend's device failed to run queued work.
+    #[error("device of protocol.backend: {0}")]
+    Device(String),
     /// A run file could not be written.
     #[error(transparent)]
     File(#[from] RunFileError),

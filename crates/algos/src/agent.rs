@@ -1,6 +1,6 @@
 //! The one shape every algorithm has, so one training loop drives PPO, SAC and TD3.
 
-use foosball_nets::{Snapshot, SnapshotError};
+use foosball_nets::{Scalar, Snapshot, SnapshotError};
 use std::path::Path;
 
 /// How to pick actions.
@@ -56,28 +56,33 @@ impl Experience<'_> {
 }
 
 /// Named scalars from one training round (losses, entropy, temperature, ...), averaged
-/// over its gradient steps.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Metrics(pub Vec<(&'static str, f64)>);
+/// over its gradient steps. On a GPU the values stay on the device: a log window reads
+/// all of its rounds' metrics in one transfer ([`Metrics::read`]).
+#[derive(Clone, Debug, Default)]
+pub struct Metrics(pub Vec<(&'static str, Scalar)>);
 
 impl Metrics {
     /// Averages each name over several rounds' metrics (names in first-seen order).
-    pub fn mean(rounds: &[Metrics]) -> Metrics {
-        let mut sums: Vec<(&'static str, f64, usize)> = Vec::new();
-        for (name, value) in rounds.iter().flat_map(|m| m.0.iter()) {
-            match sums.iter_mut().find(|(n, _, _)| n == name) {
-                Some(entry) => {
-                    entry.1 += value;
-                    entry.2 += 1;
-                }
-                None => sums.push((name, *value, 1)),
+    pub fn mean(rounds: Vec<Metrics>) -> Metrics {
+        let mut values: Vec<(&'static str, Vec<Scalar>)> = Vec::new();
+        for (name, value) in rounds.into_iter().flat_map(|m| m.0) {
+            match values.iter_mut().find(|(n, _)| *n == name) {
+                Some((_, v)) => v.push(value),
+                None => values.push((name, vec![value])),
             }
         }
         Metrics(
-            sums.into_iter()
-                .map(|(n, s, c)| (n, s / c as f64))
+            values
+                .into_iter()
+                .filter_map(|(n, v)| Scalar::mean(v).map(|m| (n, m)))
                 .collect(),
         )
+    }
+
+    /// The values on the host, those on a device read in one transfer.
+    pub fn read(self) -> Vec<(&'static str, f64)> {
+        let (names, values): (Vec<_>, Vec<_>) = self.0.into_iter().unzip();
+        names.into_iter().zip(Scalar::read_all(values)).collect()
     }
 }
 

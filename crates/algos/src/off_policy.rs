@@ -131,7 +131,7 @@ impl<L: OffPolicyLearner> Agent for OffPolicy<L> {
                 self.learner.train_step(&batch, lr, &mut self.rng)
             })
             .collect();
-        Some(Metrics::mean(&rounds))
+        Some(Metrics::mean(rounds))
     }
 
     fn env_steps(&self) -> u64 {

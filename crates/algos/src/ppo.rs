@@ -14,6 +14,7 @@ use crate::schedule::LrSchedule;
 use crate::tensors::{host, matrix, mean, standard_normal, vector};
 use burn::module::Module;
 use foosball_nets::distributions::diag_gaussian_log_prob;
+use foosball_nets::host::read_all;
 use foosball_nets::store::{load_module, save_module};
 use foosball_nets::{
     Activation, Adam, AdamConfig, CnnConfig, Device, GaussianPolicy, ObsShape, Snapshot,
@@ -146,8 +147,13 @@ pub fn clipped_surrogate(
     let unclipped = advantages.clone() * ratio.clone();
     let clipped = advantages * ratio.clone().clamp(1.0 - clip, 1.0 + clip);
     let loss = unclipped.min_pair(clipped).mean().neg();
-    let ratio = host(ratio.inner());
-    let log_ratio = host(log_ratio.inner());
+    // One read for both.
+    let [ratio, log_ratio]: [Vec<f32>; 2] = read_all(vec![ratio.inner(), log_ratio.inner()])
+        .into_iter()
+        .map(|d| d.try_into_vec::<f32>().expect("float tensors are f32"))
+        .collect::<Vec<_>>()
+        .try_into()
+        .expect("two tensors read");
     let n = ratio.len() as f64;
     let clip_fraction = ratio.iter().filter(|r| (*r - 1.0).abs() > clip).count() as f64 / n;
     let approx_kl = ratio
@@ -304,16 +310,16 @@ impl Ppo {
                     ("policy_loss", mean(surrogate.loss.inner())),
                     ("value_loss", mean(value_loss.inner())),
                     ("entropy", mean(entropy.inner())),
-                    ("approx_kl", surrogate.approx_kl),
-                    ("clip_fraction", surrogate.clip_fraction),
-                    ("grad_norm", f64::from(report.grad_norm)),
+                    ("approx_kl", surrogate.approx_kl.into()),
+                    ("clip_fraction", surrogate.clip_fraction.into()),
+                    ("grad_norm", report.grad_norm),
                 ]));
             }
         }
-        let mut metrics = Metrics::mean(&rounds);
+        let mut metrics = Metrics::mean(rounds);
         metrics.0.push((
             "explained_variance",
-            explained_variance(&self.rollout.values, &returns),
+            explained_variance(&self.rollout.values, &returns).into(),
         ));
         self.rollout.clear();
         metrics

@@ -15,9 +15,10 @@ use crate::off_policy::{OffPolicy, OffPolicyLearner, bellman_target, twin_mse};
 use crate::replay::ReplayBatch;
 use crate::tensors::{host, matrix, mean, standard_normal, vector};
 use burn::module::{Module, Param};
+use foosball_nets::host::is_host;
 use foosball_nets::store::{load_module, save_module};
 use foosball_nets::{
-    Adam, Device, ObsShape, Snapshot, SnapshotError, SquashedGaussianActor, Tensor, TwinQ,
+    Adam, Device, ObsShape, Scalar, Snapshot, SnapshotError, SquashedGaussianActor, Tensor, TwinQ,
     polyak_update,
 };
 use rand::SeedableRng;
@@ -100,7 +101,17 @@ impl Temperature {
 
     /// `alpha = exp(log alpha)` on the host.
     pub fn alpha(&self) -> f32 {
-        self.log_alpha.val().into_scalar::<f32>().exp()
+        (Scalar::of(self.log_alpha.val().inner()).read() as f32).exp()
+    }
+
+    /// `alpha`, `[1]` on `device` (a device without autodiff): exponentiated on the host
+    /// on a CPU backend, on the device elsewhere, so a GPU step never waits to read it.
+    fn alpha_on(&self, device: &Device) -> Tensor<1> {
+        if is_host(device) {
+            vector(&[self.alpha()], device)
+        } else {
+            self.log_alpha.val().inner().exp()
+        }
     }
 }
 
@@ -117,21 +128,17 @@ pub fn temperature_loss(
         .neg()
 }
 
-/// The soft target `r + gamma (1 - d) (min_q_next - alpha * log_prob_next)`, `[batch]`.
+/// The soft target `r + gamma (1 - d) (min_q_next - alpha * log_prob_next)`, `[batch]`
+/// (`alpha` `[1]`).
 pub fn soft_target(
     rewards: Tensor<1>,
     dones: Tensor<1>,
     min_q_next: Tensor<1>,
     log_prob_next: Tensor<1>,
-    alpha: f32,
+    alpha: Tensor<1>,
     gamma: f32,
 ) -> Tensor<1> {
-    bellman_target(
-        rewards,
-        dones,
-        min_q_next - log_prob_next.mul_scalar(alpha),
-        gamma,
-    )
+    bellman_target(rewards, dones, min_q_next - log_prob_next * alpha, gamma)
 }
 
 /// SAC's networks, optimisers and counters.
@@ -245,7 +252,7 @@ impl OffPolicyLearner for Sac {
         let (actions_pi, log_prob) = self.actor.sample(obs.clone(), noise);
 
         // 2. Temperature.
-        let alpha = self.temperature.alpha();
+        let alpha = self.temperature.alpha_on(&plain);
         let alpha_loss = temperature_loss(
             self.temperature.log_alpha.val(),
             log_prob.clone(),
@@ -263,8 +270,15 @@ impl OffPolicyLearner for Sac {
         let min_q_next = self.critic_target.valid().min(next_obs, next_actions);
         let rewards = vector(&batch.rewards, &plain);
         let dones = vector(&batch.dones, &plain);
-        let target =
-            soft_target(rewards, dones, min_q_next, next_log_prob, alpha, gamma).autodiff();
+        let target = soft_target(
+            rewards,
+            dones,
+            min_q_next,
+            next_log_prob,
+            alpha.clone(),
+            gamma,
+        )
+        .autodiff();
         let (q1, q2) = self
             .critic
             .forward(obs.clone(), matrix(&batch.actions, a, &dev));
@@ -277,7 +291,7 @@ impl OffPolicyLearner for Sac {
 
         // 4. Actor, against the updated critics (their parameters frozen).
         let min_q_pi = self.critic.clone().no_grad().min(obs, actions_pi);
-        let actor_loss = (log_prob.clone().mul_scalar(alpha) - min_q_pi).mean();
+        let actor_loss = (log_prob.clone() * alpha.clone().autodiff() - min_q_pi).mean();
         let actor_loss_value = mean(actor_loss.clone().inner());
         let mut grads = actor_loss.backward();
         let actor_report = self
@@ -300,12 +314,12 @@ impl OffPolicyLearner for Sac {
         Metrics(vec![
             ("critic_loss", critic_loss_value),
             ("actor_loss", actor_loss_value),
-            ("alpha", f64::from(alpha)),
+            ("alpha", Scalar::of(alpha)),
             ("alpha_loss", alpha_loss_value),
-            ("entropy", -mean(log_prob.inner())),
+            ("entropy", mean(log_prob.inner().neg())),
             ("q_mean", mean(q1.inner())),
-            ("critic_grad_norm", f64::from(critic_report.grad_norm)),
-            ("actor_grad_norm", f64::from(actor_report.grad_norm)),
+            ("critic_grad_norm", critic_report.grad_norm),
+            ("actor_grad_norm", actor_report.grad_norm),
         ])
     }
 
@@ -366,7 +380,7 @@ mod tests {
             vector(&[0.0, 1.0], &d),
             vector(&[10.0, 20.0], &d),
             vector(&[-1.0, 3.0], &d),
-            0.5,
+            vector(&[0.5], &d),
             0.9,
         );
         let y = host(y);

@@ -18,7 +18,7 @@ use crate::tensors::{host, matrix, mean, standard_normal, vector};
 use burn::module::Module;
 use foosball_nets::store::{load_module, save_module};
 use foosball_nets::{
-    Adam, DeterministicActor, Device, ObsShape, Snapshot, SnapshotError, Tensor, TwinQ,
+    Adam, DeterministicActor, Device, ObsShape, Scalar, Snapshot, SnapshotError, Tensor, TwinQ,
     polyak_update,
 };
 use rand::SeedableRng;
@@ -110,7 +110,7 @@ pub struct Td3 {
     actor_optim: Adam,
     critic_optim: Adam,
     gradient_steps: u64,
-    last_actor_loss: f64,
+    last_actor_loss: Scalar,
 }
 
 /// TD3 with its replay buffer: the [`crate::Agent`] to train.
@@ -144,7 +144,7 @@ impl Td3 {
             actor,
             critic,
             gradient_steps: 0,
-            last_actor_loss: f64::NAN,
+            last_actor_loss: Scalar::Host(f64::NAN),
             config,
         };
         let (schedule, lr) = (learner.config.off_policy.clone(), learner.config.net.lr);
@@ -229,9 +229,9 @@ impl OffPolicyLearner for Td3 {
 
         Metrics(vec![
             ("critic_loss", critic_loss_value),
-            ("actor_loss", self.last_actor_loss),
+            ("actor_loss", self.last_actor_loss.clone()),
             ("q_mean", mean(q1.inner())),
-            ("critic_grad_norm", f64::from(critic_report.grad_norm)),
+            ("critic_grad_norm", critic_report.grad_norm),
         ])
     }
 
@@ -260,7 +260,7 @@ impl OffPolicyLearner for Td3 {
         self.actor_optim.save_state(snap, "td3.actor_adam");
         self.critic_optim.save_state(snap, "td3.critic_adam");
         snap.put_u64("td3.gradient_steps", self.gradient_steps);
-        snap.put_f64("td3.last_actor_loss", self.last_actor_loss);
+        snap.put_f64("td3.last_actor_loss", self.last_actor_loss.clone().read());
     }
 
     fn load_state(&mut self, snap: &Snapshot<'_>) -> Result<(), SnapshotError> {
@@ -268,7 +268,7 @@ impl OffPolicyLearner for Td3 {
         self.actor_optim.load_state(snap, "td3.actor_adam", d)?;
         self.critic_optim.load_state(snap, "td3.critic_adam", d)?;
         self.gradient_steps = snap.u64("td3.gradient_steps")?;
-        self.last_actor_loss = snap.f64("td3.last_actor_loss")?;
+        self.last_actor_loss = Scalar::Host(snap.f64("td3.last_actor_loss")?);
         Ok(())
     }
 }

@@ -1,6 +1,7 @@
 //! Moving row-major host batches to and from tensors, and host-drawn noise.
 
-use foosball_nets::{Device, Tensor, TensorData};
+use foosball_nets::host::to_vec;
+use foosball_nets::{Device, Scalar, Tensor, TensorData};
 use rand::Rng;
 use rand_distr::StandardNormal;
 
@@ -17,16 +18,14 @@ pub fn vector(data: &[f32], device: &Device) -> Tensor<1> {
     Tensor::from_data(TensorData::new(data.to_vec(), [data.len()]), device)
 }
 
-/// The tensor's values, row-major.
+/// The tensor's values, row-major (one counted host read).
 pub fn host<const D: usize>(t: Tensor<D>) -> Vec<f32> {
-    t.into_data()
-        .try_into_vec::<f32>()
-        .expect("float tensors are f32")
+    to_vec(t)
 }
 
-/// The mean of the tensor's values, on the host.
-pub fn mean(t: Tensor<1>) -> f64 {
-    f64::from(t.mean().into_scalar::<f32>())
+/// The mean of the tensor's values (read at once on a CPU backend, kept on a GPU).
+pub fn mean(t: Tensor<1>) -> Scalar {
+    Scalar::of(t.mean())
 }
 
 /// `rows * cols` standard-normal draws from `rng`, row-major.

@@ -10,12 +10,19 @@
 //! and on an H100 (README, "GPU backends"), and each test also checks that the update moved
 //! the actions by much more than the tolerance, so a backend that skipped it would fail.
 //!
+//! The same GPU path waits for the device only where it must: an off-policy update reads
+//! nothing back (losses, norms, the temperature and the optimiser's clipping and
+//! non-finite guard stay on the device) and a log window's metrics come back in one read;
+//! a PPO update reads once per minibatch (its KL estimate and clip fraction, as SB3) and
+//! once for the bootstrap values. Reads are counted by `foosball_nets::host::reads`.
+//!
 //! `cargo test -p foosball-algos --release --features vulkan --test backend_parity`
 
 use foosball_algos::agent::{ActMode, Agent, Experience, Metrics};
 use foosball_algos::{
     LrSchedule, NetConfig, OffPolicyConfig, Ppo, PpoConfig, Sac, SacConfig, Td3, Td3Config,
 };
+use foosball_nets::host::reads;
 use foosball_nets::{Backend, Device};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -103,9 +110,10 @@ fn check(name: &str, cpu: &mut dyn Agent, gpu: &mut dyn Agent, n: usize, updates
             feed(cpu, 1, 100 + step as u64);
             feed(gpu, 1, 100 + step as u64);
         }
-        let (Some(Metrics(a)), Some(Metrics(b))) = (cpu.update(1.0), gpu.update(1.0)) else {
+        let (Some(a), Some(b)) = (cpu.update(1.0), gpu.update(1.0)) else {
             panic!("{name}: update {step} did not run");
         };
+        let (a, b): (Vec<_>, Vec<_>) = (a.read(), b.read());
         for ((key, x), (_, y)) in a.iter().zip(&b) {
             if x.is_nan() && y.is_nan() {
                 continue; // TD3's actor loss before its first delayed step
@@ -183,5 +191,68 @@ fn ppo_update_matches_cpu() {
             BATCH,
             1,
         );
+    }
+}
+
+/// Host reads made by `f` on this thread.
+fn reads_in<T>(f: impl FnOnce() -> T) -> (T, u64) {
+    let before = reads();
+    let out = f();
+    (out, reads() - before)
+}
+
+/// `window` off-policy updates (feeding one transition before each, outside the count)
+/// read nothing from the device; their metrics then come back in one read, all finite.
+fn check_window(name: &str, agent: &mut dyn Agent, window: usize) {
+    feed(agent, BATCH, 7);
+    let mut rounds = Vec::new();
+    for step in 0..window {
+        feed(agent, 1, 100 + step as u64);
+        let (metrics, n) = reads_in(|| agent.update(1.0));
+        rounds.push(metrics.expect("an update ran"));
+        assert_eq!(n, 0, "{name}: update {step} read the device {n} times");
+    }
+    let (values, n) = reads_in(|| Metrics::mean(rounds).read());
+    assert_eq!(n, 1, "{name}: the window's metrics took {n} reads");
+    // TD3's actor loss is NaN until its first delayed step, so the window's mean is too.
+    assert!(
+        values
+            .iter()
+            .all(|(key, v)| v.is_finite() || *key == "actor_loss"),
+        "{name}: {values:?}"
+    );
+}
+
+#[test]
+fn off_policy_updates_read_nothing_back_until_the_log_window_ends() {
+    let mut sac = SacConfig::default();
+    shrink(&mut sac.net, Some(&mut sac.off_policy));
+    let mut td3 = Td3Config::default();
+    shrink(&mut td3.net, Some(&mut td3.off_policy));
+    for (backend, gpu) in devices().1 {
+        let sac_agent = &mut Sac::agent(OBS, ACT, sac.clone(), 3, &gpu);
+        check_window(&format!("SAC on {backend}"), sac_agent, 6);
+        let td3_agent = &mut Td3::agent(OBS, ACT, td3.clone(), 3, &gpu);
+        check_window(&format!("TD3 on {backend}"), td3_agent, 6);
+    }
+}
+
+#[test]
+fn a_ppo_update_reads_once_per_minibatch_and_once_for_its_bootstrap() {
+    let mut config = PpoConfig {
+        n_steps: BATCH,
+        batch_size: BATCH / 4,
+        n_epochs: 2,
+        ..PpoConfig::default()
+    };
+    shrink(&mut config.net, None);
+    for (backend, gpu) in devices().1 {
+        let agent = &mut Ppo::new(OBS, ACT, config.clone(), 3, &gpu);
+        feed(agent, BATCH, 7);
+        let (metrics, n) = reads_in(|| agent.update(1.0));
+        let minibatches = 2 * 4;
+        assert_eq!(n, minibatches + 1, "PPO on {backend}");
+        let (_, n) = reads_in(|| metrics.expect("an update ran").read());
+        assert_eq!(n, 1, "PPO on {backend}");
     }
 }

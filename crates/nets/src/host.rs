@@ -1,4 +1,10 @@
-//! Host-memory fast paths for CPU backends.
+//! Reading tensors back to the host, counted, and host-memory fast paths for CPU
+//! backends.
+//!
+//! Every read of tensor values in the project goes through [`read`] or [`read_all`]
+//! (the architecture test keeps it so), which count them per thread: on a GPU each read
+//! waits for the device's queue to drain, so a training step should make none
+//! ([`reads`] lets tests assert it).
 //!
 //! On a CPU backend every tensor op is one pass over memory, so Adam written as tensor
 //! ops makes about a dozen passes over each parameter. Here the flat values are taken to
@@ -6,8 +12,41 @@
 //! element-wise, so the result does not depend on the thread count) and put back.
 
 use burn::backend::DispatchDevice;
-use burn::tensor::{Device, Tensor, TensorData};
+use burn::tensor::{Device, Tensor, TensorData, Transaction};
 use rayon::prelude::*;
+use std::cell::Cell;
+
+thread_local! {
+    static READS: Cell<u64> = const { Cell::new(0) };
+}
+
+/// Reads of tensor values made on this thread so far ([`read`] and [`read_all`] calls).
+pub fn reads() -> u64 {
+    READS.with(Cell::get)
+}
+
+fn count_read() {
+    READS.with(|r| r.set(r.get() + 1));
+}
+
+/// The tensor's values on the host (one counted read; no copy on flex when nothing
+/// else shares the tensor).
+pub fn read<const D: usize>(t: Tensor<D>) -> TensorData {
+    count_read();
+    t.into_data()
+}
+
+/// Several tensors' values in one transfer (one counted read), in order.
+pub fn read_all<const D: usize>(tensors: Vec<Tensor<D>>) -> Vec<TensorData> {
+    if tensors.is_empty() {
+        return Vec::new();
+    }
+    count_read();
+    tensors
+        .into_iter()
+        .fold(Transaction::default(), Transaction::register)
+        .execute()
+}
 
 /// Elements per parallel chunk; fixed so reductions add in the same order on any pool.
 pub const CHUNK: usize = 1 << 15;
@@ -25,8 +64,8 @@ pub fn is_host(device: &Device) -> bool {
 }
 
 /// The values of a flat tensor (no copy on flex when nothing else shares the tensor).
-pub fn to_vec(t: Tensor<1>) -> Vec<f32> {
-    t.into_data()
+pub fn to_vec<const D: usize>(t: Tensor<D>) -> Vec<f32> {
+    read(t)
         .try_into_vec::<f32>()
         .expect("float parameters are f32")
 }
@@ -34,14 +73,14 @@ pub fn to_vec(t: Tensor<1>) -> Vec<f32> {
 /// A flat tensor's values as host data: read them with `as_slice::<f32>()`. No copy on
 /// flex when nothing else shares the tensor.
 pub fn host_data(t: Tensor<1>) -> TensorData {
-    t.into_data()
+    read(t)
 }
 
 /// `t` changed in place by `f` on its host values (flex hands its buffer over and takes it
 /// back without copying when nothing else shares it).
 pub fn update_in_place(t: Tensor<1>, f: impl FnOnce(&mut [f32])) -> Tensor<1> {
     let device = t.device();
-    let mut data = t.into_data();
+    let mut data = read(t);
     f(data
         .as_mut_slice::<f32>()
         .expect("float parameters are f32"));

@@ -1,8 +1,10 @@
 //! Burn networks for foosball-rl: the MLP, the image encoder (NatureCNN) and the
 //! actor/critic heads of PPO, SAC and TD3,
-//! the action distributions, parameter-wise utilities (polyak averaging, flat views),
-//! Adam with PyTorch's epsilon and global-norm gradient clipping, backend selection, and
-//! files for networks (Burn records) and the rest of the training state (snapshots).
+//! the action distributions, parameter-wise utilities (polyak averaging, flat and
+//! own-rank views), Adam with PyTorch's epsilon and global-norm gradient clipping
+//! (computed on the device on GPUs: no host reads in a step), counted host reads and
+//! device-resident scalars, backend selection, and files for networks (Burn records)
+//! and the rest of the training state (snapshots).
 //!
 //! Tensors are row-major batches: observations `[batch, obs_dim]`, actions
 //! `[batch, action_dim]`, values and log-probabilities `[batch]`. Parameters are drawn
@@ -10,6 +12,7 @@
 //! backend's global RNG, so a seed fixes a network whatever the backend or thread count.
 
 pub mod actor;
+pub mod any_rank;
 pub mod atomic_file;
 pub mod backend;
 pub mod cnn;
@@ -20,6 +23,7 @@ pub mod init;
 pub mod mlp;
 pub mod optim;
 pub mod params;
+pub mod scalar;
 pub mod snapshot;
 pub mod store;
 
@@ -33,4 +37,5 @@ pub use init::NetInit;
 pub use mlp::{Activation, Mlp};
 pub use optim::{Adam, AdamConfig, StepReport};
 pub use params::polyak_update;
+pub use scalar::Scalar;
 pub use snapshot::{Snapshot, SnapshotError};

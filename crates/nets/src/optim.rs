@@ -4,12 +4,15 @@
 //! tensor on its own; the paper (SB3 on PyTorch) used `eps = 1e-8` and one norm over all
 //! of a network's parameters. Both are written out here.
 
+use crate::any_rank::AnyRank;
 use crate::host::{CHUNK, host_data, is_host, sum_squares, to_vec, update_in_place};
-use crate::params::{flat_grads, map_flat_params, take_module};
+use crate::params::{
+    ParamFn, flat_grads, grads_any_rank, map_flat_params, map_params, on_host, take_module,
+};
+use crate::scalar::Scalar;
 use crate::snapshot::{Snapshot, SnapshotError};
 use burn::module::Module;
-use burn::tensor::TensorData;
-use burn::tensor::{Device, Gradients, Tensor};
+use burn::tensor::{Bool, Device, Gradients, Tensor, TensorData};
 use rayon::prelude::*;
 use std::borrow::Cow;
 
@@ -41,13 +44,14 @@ impl Default for AdamConfig {
 }
 
 /// What one optimiser step did.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug)]
 pub struct StepReport {
     /// Global L2 norm of the gradient before clipping.
-    pub grad_norm: f32,
-    /// False when the gradient was not finite: the parameters and moments were left as
-    /// they were, so one bad batch cannot poison the run.
-    pub applied: bool,
+    pub grad_norm: Scalar,
+    /// 1 when the step was applied, 0 when the gradient was not finite: the parameters
+    /// and moments were left as they were, so one bad batch cannot poison the run (on a
+    /// GPU this is decided on the device, without reading the norm back).
+    pub applied: Scalar,
 }
 
 /// A parameter's first and second moments, where its backend keeps them.
@@ -55,14 +59,17 @@ pub struct StepReport {
 enum Moments {
     /// Host vectors (CPU backends: fused update loop).
     Host(Vec<f32>, Vec<f32>),
-    /// Device tensors (GPU backends: tensor ops).
-    Device(Box<[Tensor<1>; 2]>),
+    /// Device tensors at the parameter's own rank (GPU backends: tensor ops).
+    Device(Box<[AnyRank; 2]>),
 }
 
-/// A parameter's gradient, on the host or on the device.
-enum Grad {
-    Host(TensorData),
-    Device(Tensor<1>),
+/// Steps applied so far: counted on the host, or on the device (a `[1]` tensor that a
+/// skipped step does not advance; exact up to 2^24 steps, past which Adam's bias
+/// corrections are 1 to f32 precision anyway).
+#[derive(Clone, Debug)]
+enum Steps {
+    Host(u64),
+    Device(Box<Tensor<1>>),
 }
 
 /// The scalars of one Adam step: `p -= step_size * m / (sqrt(v) / bias2_sqrt + eps)`
@@ -101,32 +108,100 @@ impl Update {
                 }
             });
     }
+}
 
-    fn device(self, p: Tensor<1>, g: Tensor<1>, m: Tensor<1>, v: Tensor<1>) -> [Tensor<1>; 3] {
-        let Update {
-            beta1,
-            beta2,
-            eps,
-            step_size,
-            bias2_sqrt,
-            scale,
-        } = self;
-        let g = if scale < 1.0 { g.mul_scalar(scale) } else { g };
-        let m = m.mul_scalar(beta1) + g.clone().mul_scalar(1.0 - beta1);
-        let v = v.mul_scalar(beta2) + g.square().mul_scalar(1.0 - beta2);
-        let denom = v.clone().sqrt().div_scalar(bias2_sqrt).add_scalar(eps);
-        let p = p - m.clone().div(denom).mul_scalar(step_size);
-        [p, m, v]
+/// [`Update`]'s step on a device: the same formulas with the step-dependent scalars as
+/// `[1]` tensors computed there (`t`, the clipping scale and whether the gradient is
+/// finite are never read back), applied to each parameter at its own rank so that a
+/// parameter's update is one fused element-wise kernel.
+struct DeviceUpdate {
+    beta1: f32,
+    beta2: f32,
+    eps: f32,
+    step_size: Tensor<1>,
+    bias2_sqrt: Tensor<1>,
+    /// `min(1, max_norm / (norm + 1e-6))`; `None` without clipping.
+    scale: Option<Tensor<1>>,
+    /// True when the gradient is not finite: everything stays as it was.
+    skip: Tensor<1, Bool>,
+    grads: Vec<Option<AnyRank>>,
+    moments: Vec<Option<Moments>>,
+}
+
+impl ParamFn for &mut DeviceUpdate {
+    fn apply<const D: usize>(&mut self, index: usize, p: Tensor<D>) -> Tensor<D> {
+        let Some(g) = self.grads[index].take() else {
+            return p;
+        };
+        let dims = p.dims();
+        let g = g.into_rank(dims);
+        let [m, v] = match self.moments[index].take() {
+            Some(Moments::Device(mv)) => mv.map(|x| x.into_rank(dims)),
+            _ => [g.zeros_like(), g.zeros_like()],
+        };
+        if dims.iter().product::<usize>() > 1 {
+            let [p, m, v] = self.update(p, g, m, v);
+            self.moments[index] = Some(Moments::Device(Box::new([
+                AnyRank::new(m),
+                AnyRank::new(v),
+            ])));
+            return p;
+        }
+        // A one-element parameter (SAC's log alpha) has the shape of the step's `[1]`
+        // scalars, and burn-fusion 0.22 then writes the fused kernel's outputs into the
+        // wrong same-shaped inputs (wrong parameters on wgpu, measured; cf. burn#1656).
+        // Updated at width 2 instead, the two lanes equal, and the first lane kept.
+        let wide = |x: Tensor<D>| {
+            let x = x.reshape([1]);
+            Tensor::cat(vec![x.clone(), x], 0)
+        };
+        let [p, m, v] = self.update(wide(p), wide(g), wide(m), wide(v));
+        let narrow = |x: Tensor<1>| x.narrow(0, 0, 1).reshape(dims);
+        self.moments[index] = Some(Moments::Device(Box::new([
+            AnyRank::new(narrow(m)),
+            AnyRank::new(narrow(v)),
+        ])));
+        narrow(p)
     }
 }
 
-/// Adam's state for one module: step count and per-parameter moments (flat, in the
-/// module's visiting order; created at the first step). On CPU backends the update is
-/// one fused host loop per parameter, elsewhere tensor ops; the math is the same.
+impl DeviceUpdate {
+    /// `[p, m, v]` after the step.
+    fn update<const D: usize>(
+        &self,
+        p: Tensor<D>,
+        g: Tensor<D>,
+        m: Tensor<D>,
+        v: Tensor<D>,
+    ) -> [Tensor<D>; 3] {
+        let dims = p.dims();
+        let scalar = |x: &Tensor<1>| x.clone().reshape([1; D]);
+        let g = match &self.scale {
+            Some(scale) => g * scalar(scale),
+            None => g,
+        };
+        let (beta1, beta2) = (self.beta1, self.beta2);
+        let m_new = m.clone().mul_scalar(beta1) + g.clone().mul_scalar(1.0 - beta1);
+        let v_new = v.clone().mul_scalar(beta2) + g.square().mul_scalar(1.0 - beta2);
+        let denom = (v_new.clone().sqrt() / scalar(&self.bias2_sqrt)).add_scalar(self.eps);
+        let p_new = p.clone() - m_new.clone() / denom * scalar(&self.step_size);
+        let skip = self.skip.clone().reshape([1; D]).expand(dims);
+        [
+            p_new.mask_where(skip.clone(), p),
+            m_new.mask_where(skip.clone(), m),
+            v_new.mask_where(skip, v),
+        ]
+    }
+}
+
+/// Adam's state for one module: step count and per-parameter moments (in the module's
+/// visiting order; created at the first step). On CPU backends the update is one fused
+/// host loop per parameter, elsewhere tensor ops that never wait for the device; the
+/// math is the same.
 #[derive(Clone, Debug)]
 pub struct Adam {
     config: AdamConfig,
-    steps: u64,
+    steps: Steps,
     moments: Vec<Option<Moments>>,
     host_fast_path: bool,
 }
@@ -141,7 +216,7 @@ impl Adam {
     pub fn new(config: AdamConfig) -> Self {
         Self {
             config,
-            steps: 0,
+            steps: Steps::Host(0),
             moments: Vec::new(),
             host_fast_path: true,
         }
@@ -159,16 +234,19 @@ impl Adam {
         &self.config
     }
 
-    /// Steps applied so far.
+    /// Steps applied so far (a read from the device on the GPU path).
     pub fn steps(&self) -> u64 {
-        self.steps
+        match &self.steps {
+            Steps::Host(k) => *k,
+            Steps::Device(t) => Scalar::of(t.as_ref().clone()).read() as u64,
+        }
     }
 
     /// Stores the step count and moments under `prefix`: `{prefix}.steps`,
     /// `{prefix}.stepped` (one flag per parameter) and `{prefix}.m{i}` / `{prefix}.v{i}`
     /// for each stepped parameter `i` (host moments are borrowed, not copied).
     pub fn save_state<'a>(&'a self, snap: &mut Snapshot<'a>, prefix: &str) {
-        snap.put_u64(format!("{prefix}.steps"), self.steps);
+        snap.put_u64(format!("{prefix}.steps"), self.steps());
         let stepped: Vec<bool> = self.moments.iter().map(Option::is_some).collect();
         snap.put_bools(format!("{prefix}.stepped"), &stepped);
         for (i, moments) in self.moments.iter().enumerate() {
@@ -177,7 +255,7 @@ impl Adam {
                 Some(Moments::Host(m, v)) => (m.into(), v.into()),
                 Some(Moments::Device(mv)) => {
                     let [m, v] = mv.as_ref().clone();
-                    (to_vec(m).into(), to_vec(v).into())
+                    (to_vec(m.flat()).into(), to_vec(v.flat()).into())
                 }
             };
             snap.put_f32(format!("{prefix}.m{i}"), m);
@@ -209,12 +287,15 @@ impl Adam {
                 Moments::Host(m.to_vec(), v.to_vec())
             } else {
                 let tensor = |x: &[f32]| {
-                    Tensor::<1>::from_data(TensorData::new(x.to_vec(), [x.len()]), &plain)
+                    AnyRank::R1(Tensor::from_data(
+                        TensorData::new(x.to_vec(), [x.len()]),
+                        &plain,
+                    ))
                 };
                 Moments::Device(Box::new([tensor(m), tensor(v)]))
             }));
         }
-        self.steps = steps;
+        self.steps = Steps::Host(steps);
         self.moments = moments;
         Ok(())
     }
@@ -228,52 +309,57 @@ impl Adam {
         grads: &mut Gradients,
         lr: f64,
     ) -> (M, StepReport) {
-        let grads = flat_grads(&module, grads);
-        if self.moments.is_empty() {
-            self.moments = vec![None; grads.len()];
+        if self.host_fast_path && on_host(&module) {
+            self.host_step(module, grads, lr)
+        } else {
+            self.device_step(module, grads, lr)
         }
-        assert_eq!(
-            self.moments.len(),
-            grads.len(),
-            "Adam used with another module"
-        );
-        let host = self.host_fast_path
-            && grads
-                .iter()
-                .flatten()
-                .next()
-                .is_some_and(|g| is_host(&g.device()));
-        let mut grads: Vec<Option<Grad>> = grads
-            .into_iter()
-            .map(|g| {
-                g.map(|g| {
-                    if host {
-                        Grad::Host(host_data(g))
-                    } else {
-                        Grad::Device(g)
-                    }
-                })
-            })
-            .collect();
+    }
 
-        let grad_norm = global_norm(&grads);
-        if !grad_norm.is_finite() {
-            return (
-                module,
-                StepReport {
-                    grad_norm,
-                    applied: false,
-                },
-            );
+    fn check_module(&mut self, params: usize) {
+        if self.moments.is_empty() {
+            self.moments = vec![None; params];
         }
-        self.steps += 1;
+        assert_eq!(self.moments.len(), params, "Adam used with another module");
+    }
+
+    /// The step as one fused host loop per parameter.
+    fn host_step<M: Module>(
+        &mut self,
+        module: M,
+        grads: &mut Gradients,
+        lr: f64,
+    ) -> (M, StepReport) {
+        let mut grads: Vec<Option<TensorData>> = flat_grads(&module, grads)
+            .into_iter()
+            .map(|g| g.map(host_data))
+            .collect();
+        self.check_module(grads.len());
+        let grad_norm = grads
+            .iter()
+            .flatten()
+            .map(|g| sum_squares(g.as_slice::<f32>().expect("float gradients are f32")))
+            .sum::<f64>()
+            .sqrt() as f32;
+        let report = |applied: bool| StepReport {
+            grad_norm: Scalar::Host(f64::from(grad_norm)),
+            applied: Scalar::Host(f64::from(u8::from(applied))),
+        };
+        if !grad_norm.is_finite() {
+            return (module, report(false));
+        }
+        let steps = match &mut self.steps {
+            Steps::Host(k) => k,
+            Steps::Device(_) => unreachable!("a host optimiser counts its steps on the host"),
+        };
+        *steps += 1;
         let AdamConfig {
             beta1,
             beta2,
             eps,
             max_grad_norm,
         } = self.config;
-        let t = self.steps as i32;
+        let t = *steps as i32;
         let update = Update {
             beta1,
             beta2,
@@ -283,33 +369,81 @@ impl Adam {
             scale: clip_coefficient(grad_norm, max_grad_norm),
         };
         let moments = &mut self.moments;
-        let module = map_flat_params(module, |i, p| match grads[i].take() {
-            None => p,
-            Some(Grad::Host(g)) => {
-                let g = g.as_slice::<f32>().expect("float gradients are f32");
-                let (mut m, mut v) = match moments[i].take() {
-                    Some(Moments::Host(m, v)) => (m, v),
-                    _ => (vec![0.0; g.len()], vec![0.0; g.len()]),
-                };
-                let p = update_in_place(p, |p| update.host(p, g, &mut m, &mut v));
-                moments[i] = Some(Moments::Host(m, v));
-                p
-            }
-            Some(Grad::Device(g)) => {
-                let [m, v] = match moments[i].take() {
-                    Some(Moments::Device(mv)) => *mv,
-                    _ => [g.zeros_like(), g.zeros_like()],
-                };
-                let [p, m, v] = update.device(p, g, m, v);
-                moments[i] = Some(Moments::Device(Box::new([m, v])));
-                p
-            }
+        let module = map_flat_params(module, |i, p| {
+            let Some(g) = grads[i].take() else {
+                return p;
+            };
+            let g = g.as_slice::<f32>().expect("float gradients are f32");
+            let (mut m, mut v) = match moments[i].take() {
+                Some(Moments::Host(m, v)) => (m, v),
+                _ => (vec![0.0; g.len()], vec![0.0; g.len()]),
+            };
+            let p = update_in_place(p, |p| update.host(p, g, &mut m, &mut v));
+            moments[i] = Some(Moments::Host(m, v));
+            p
         });
+        (module, report(true))
+    }
+
+    /// The step as tensor ops, with nothing read back from the device.
+    fn device_step<M: Module>(
+        &mut self,
+        module: M,
+        grads: &mut Gradients,
+        lr: f64,
+    ) -> (M, StepReport) {
+        let grads = grads_any_rank(&module, grads);
+        self.check_module(grads.len());
+        let Some(device) = grads.iter().flatten().next().map(AnyRank::device) else {
+            return (
+                module,
+                StepReport {
+                    grad_norm: Scalar::Host(0.0),
+                    applied: Scalar::Host(0.0),
+                },
+            );
+        };
+        let squares: Vec<Tensor<1>> = grads.iter().flatten().map(AnyRank::sum_squares).collect();
+        let grad_norm = Tensor::cat(squares, 0).sum().sqrt();
+        let finite = grad_norm.clone().is_finite();
+        let steps = match &self.steps {
+            Steps::Host(k) => Tensor::from_data(TensorData::new(vec![*k as f32], [1]), &device),
+            Steps::Device(t) => t.as_ref().clone(),
+        } + finite.clone().float();
+        self.steps = Steps::Device(Box::new(steps.clone()));
+        let AdamConfig {
+            beta1,
+            beta2,
+            eps,
+            max_grad_norm,
+        } = self.config;
+        // b^t = exp(t ln b); 1 - b^t.
+        let one_minus_pow = |b: f32| steps.clone().mul_scalar(b.ln()).exp().neg().add_scalar(1.0);
+        let mut update = DeviceUpdate {
+            beta1,
+            beta2,
+            eps,
+            step_size: one_minus_pow(beta1).recip().mul_scalar(lr as f32),
+            bias2_sqrt: one_minus_pow(beta2).sqrt(),
+            scale: max_grad_norm.map(|max| {
+                grad_norm
+                    .clone()
+                    .add_scalar(1e-6)
+                    .recip()
+                    .mul_scalar(max)
+                    .clamp_max(1.0)
+            }),
+            skip: finite.clone().bool_not(),
+            grads,
+            moments: std::mem::take(&mut self.moments),
+        };
+        let module = map_params(module, &mut update);
+        self.moments = update.moments;
         (
             module,
             StepReport {
-                grad_norm,
-                applied: true,
+                grad_norm: Scalar::Device(Box::new(grad_norm)),
+                applied: Scalar::Device(Box::new(finite.float())),
             },
         )
     }
@@ -326,22 +460,4 @@ impl Adam {
         *slot = module;
         report
     }
-}
-
-/// The L2 norm of all gradients together.
-fn global_norm(grads: &[Option<Grad>]) -> f32 {
-    let mut host = 0.0f64;
-    let mut device = Vec::new();
-    for g in grads.iter().flatten() {
-        match g {
-            Grad::Host(g) => {
-                host += sum_squares(g.as_slice::<f32>().expect("float gradients are f32"))
-            }
-            Grad::Device(g) => device.push(g.clone().square().sum()),
-        }
-    }
-    if !device.is_empty() {
-        host += f64::from(Tensor::cat(device, 0).sum().into_scalar::<f32>());
-    }
-    host.sqrt() as f32
 }
