@@ -139,29 +139,26 @@ impl ParamFn for &mut DeviceUpdate {
             Some(Moments::Device(mv)) => mv.map(|x| x.into_rank(dims)),
             _ => [g.zeros_like(), g.zeros_like()],
         };
-        if dims.iter().product::<usize>() > 1 {
-            let [p, m, v] = self.update(p, g, m, v);
-            self.moments[index] = Some(Moments::Device(Box::new([
-                AnyRank::new(m),
-                AnyRank::new(v),
-            ])));
-            return p;
-        }
-        // A one-element parameter (SAC's log alpha) has the shape of the step's `[1]`
-        // scalars, and burn-fusion 0.22 then writes the fused kernel's outputs into the
-        // wrong same-shaped inputs (wrong parameters on wgpu, measured; cf. burn#1656).
-        // Updated at width 2 instead, the two lanes equal, and the first lane kept.
-        let wide = |x: Tensor<D>| {
-            let x = x.reshape([1]);
-            Tensor::cat(vec![x.clone(), x], 0)
+        let [p, m, v] = if dims.iter().product::<usize>() > 1 {
+            self.update(p, g, m, v)
+        } else {
+            // A one-element parameter (SAC's log alpha) has the shape of the step's `[1]`
+            // scalars, and burn-fusion 0.22 then writes the fused kernel's outputs into
+            // the wrong same-shaped inputs (wrong parameters on wgpu, measured; cf.
+            // burn#1656). Updated at width 2 instead, the two lanes equal, and the first
+            // lane kept.
+            let wide = |x: Tensor<D>| {
+                let x = x.reshape([1]);
+                Tensor::cat(vec![x.clone(), x], 0)
+            };
+            self.update(wide(p), wide(g), wide(m), wide(v))
+                .map(|x| x.narrow(0, 0, 1).reshape(dims))
         };
-        let [p, m, v] = self.update(wide(p), wide(g), wide(m), wide(v));
-        let narrow = |x: Tensor<1>| x.narrow(0, 0, 1).reshape(dims);
         self.moments[index] = Some(Moments::Device(Box::new([
-            AnyRank::new(narrow(m)),
-            AnyRank::new(narrow(v)),
+            AnyRank::new(m),
+            AnyRank::new(v),
         ])));
-        narrow(p)
+        p
     }
 }
 
