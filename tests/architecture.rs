@@ -224,11 +224,13 @@ fn the_root_package_s_layers_import_one_way() {
     let uses = |a: &str, b: &str| g.get(a).is_some_and(|u| u.contains(b));
     assert!(uses("run", "play") && uses("sweep", "run") && uses("report", "play"));
     assert!(uses("league", "play") && uses("self_play", "play") && uses("run", "self_play"));
-    for low in ["config", "agents", "files", "png", "play"] {
+    assert!(uses("play", "plan"));
+    for low in ["config", "agents", "files", "png", "plan", "play"] {
         for high in ["self_play", "run", "sweep", "report", "league"] {
             assert!(!uses(low, high), "{low} imports {high}");
         }
     }
+    assert!(!uses("plan", "play"), "plan imports play");
     for (a, b) in [
         ("league", "report"),
         ("report", "league"),

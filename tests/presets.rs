@@ -137,7 +137,7 @@ fn presets_load_from_toml_with_overrides() {
 /// ever went faster than 100 cm/s.
 fn outcomes(config: &FoosballConfig, policy: ScriptedPolicy, episodes: u64) -> (usize, usize) {
     let mut env = FoosballEnv::new(config.clone()).unwrap();
-    let mut act = policy.batch_policy(0, config);
+    let mut act = policy.batch_policy(0, config).unwrap();
     let (mut scored, mut kicked) = (0, 0);
     for seed in 0..episodes {
         let mut obs = env.reset(Some(seed));

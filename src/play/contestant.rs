@@ -104,7 +104,7 @@ impl Contestant {
     /// that mean on `table` what they meant in training; a refusal says what differs.
     pub fn policy(&self, table: &FoosballConfig, seed: u64) -> Result<OwnedPolicy, String> {
         match self {
-            Contestant::Scripted(p) => Ok(p.batch_policy(seed, table)),
+            Contestant::Scripted(p) => p.batch_policy(seed, table),
             Contestant::Run {
                 dir,
                 checkpoint,

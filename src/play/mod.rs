@@ -2,14 +2,16 @@
 //! play on held-out seeds, the paper's test metrics over them, the recorded
 //! trajectories and their animations.
 //!
-//! Imports run one way: `play` reads [`crate::config`], [`crate::agents`] and
-//! [`crate::files`], and nothing of [`crate::run`], [`crate::sweep`] or [`crate::report`].
+//! Imports run one way: `play` reads [`crate::config`], [`crate::agents`],
+//! [`crate::plan`] and [`crate::files`], and nothing of [`crate::run`], [`crate::sweep`] or [`crate::report`].
 //!
 //! - [`metrics`]: the paper's test metrics with confidence intervals;
 //! - [`trajectories`]: recorded episodes and `trajectories.bin`;
 //! - [`evaluation`]: a policy's episodes on held-out seeds, played side by side, and the
 //!   test files;
-//! - [`scripted`]: scripted yellow policies (shooter, dribbler, zero, random);
+//! - [`scripted`]: scripted yellow policies (shooter, dribbler, zero, random, and the
+//!   planner's ceiling);
+//! - [`planned`]: the planner's test episodes and what its searches cost;
 //! - [`player`]: who plays test episodes for `evaluate` and `render`;
 //! - [`animation`]: episodes as captioned animations (GIF, or MP4 through ffmpeg);
 //! - [`contestant`]: who plays one side of a two-sided match (networks or scripted);
@@ -20,6 +22,7 @@ pub mod contestant;
 pub mod evaluation;
 pub mod matches;
 pub mod metrics;
+pub mod planned;
 pub mod player;
 pub mod scripted;
 pub mod trajectories;

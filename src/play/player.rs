@@ -7,6 +7,7 @@ use super::metrics::TestMetrics;
 use super::scripted::{Baseline, ScriptedPolicy};
 use crate::agents::load_agent;
 use crate::config::{Checkpoint, RunConfig, TestActions};
+use crate::plan::PlannerConfig;
 use foosball_env::seeding::TEST_ENVS;
 use foosball_env::{FoosballConfig, Preset};
 use std::path::{Path, PathBuf};
@@ -39,6 +40,10 @@ pub struct PlayerArgs {
     /// With `--policy`: the seed the test seeds derive from (default the config's, or 0).
     #[arg(long, requires = "policy")]
     pub seed: Option<u64>,
+    /// With `--policy planner`: a TOML file of the search budget (`population`,
+    /// `iterations`, ...; default the planner's defaults).
+    #[arg(long, requires = "policy")]
+    pub planner: Option<PathBuf>,
 }
 
 /// What plays: a run's networks or a scripted policy, each on its own table and seeds.
@@ -56,7 +61,7 @@ pub enum Player {
         actions: TestActions,
     },
     /// A scripted policy on a table.
-    Scripted(Baseline),
+    Scripted(Box<Baseline>),
 }
 
 impl Player {
@@ -72,7 +77,22 @@ impl Player {
                     None => (FoosballConfig::preset(args.preset.unwrap_or_default()), 0),
                 };
                 let seed = args.seed.unwrap_or(config_seed);
-                Ok(Player::Scripted(Baseline { policy, seed, env }))
+                let planner = match (&args.planner, policy) {
+                    (None, _) => None,
+                    (Some(path), ScriptedPolicy::Planner) => Some(PlannerConfig::load(path)?),
+                    (Some(_), other) => {
+                        return Err(format!(
+                            "--planner sets the planner's budget; --policy is {}",
+                            other.name()
+                        ));
+                    }
+                };
+                Ok(Player::Scripted(Box::new(Baseline {
+                    policy,
+                    seed,
+                    env,
+                    planner,
+                })))
             }
             (Some(dir), None) => {
                 let config = RunConfig::load_run(dir).map_err(|e| e.to_string())?;

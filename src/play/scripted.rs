@@ -1,14 +1,18 @@
 //! Scripted policies for yellow, played through the same evaluation as trained agents:
-//! the yardsticks of the report (`evaluate --policy shooter|dribbler|zero|random`).
+//! the yardsticks of the report (`evaluate --policy shooter|dribbler|zero|random`), and
+//! the planner's ceiling (`evaluate --policy planner`, [`super::planned`]).
 
 use super::evaluation::{Episodes, OwnedPolicy, PlayError, PlayedEpisode, play, write_test};
 use super::metrics::TestMetrics;
+use super::planned::{PlanCost, play_planned};
 use crate::files::{RunFileError, write_atomic};
+use crate::plan::PlannerConfig;
 use foosball_env::foosball::from_ball_frame;
 use foosball_env::layout::OBS_DIM;
 use foosball_env::opponent::{RandomOpponent, StaticOpponent};
 use foosball_env::scripted::Kicker;
 use foosball_env::seeding::TEST_ENVS;
+use foosball_env::seeding::derive_seed;
 use foosball_env::{EnvRng, Opponent};
 use foosball_env::{FoosballConfig, ObservationKind};
 use rand::SeedableRng;
@@ -27,6 +31,10 @@ pub enum ScriptedPolicy {
     Zero,
     /// Every command uniform in [-1, 1] each step.
     Random,
+    /// Searches the simulator for the best plan of each episode from its start
+    /// ([`crate::plan`]) and plays it: the task's empirical ceiling from those starts, not
+    /// a policy of observations (it cannot play black in a match).
+    Planner,
 }
 
 impl ScriptedPolicy {
@@ -37,6 +45,7 @@ impl ScriptedPolicy {
             ScriptedPolicy::Dribbler => "dribbler",
             ScriptedPolicy::Zero => "zero",
             ScriptedPolicy::Random => "random",
+            ScriptedPolicy::Planner => "planner",
         }
     }
 
@@ -44,24 +53,32 @@ impl ScriptedPolicy {
     /// fixes the random policy's draws (one stream, rows in batch order, so a fixed batch
     /// layout replays exactly). The hand-written controllers read the ball in world
     /// coordinates and write linear commands: both are translated from and into `env`'s
-    /// `ball_frame` and `action_map`.
-    pub fn batch_policy(self, seed: u64, env: &FoosballConfig) -> OwnedPolicy {
+    /// `ball_frame` and `action_map`. The planner has none: it plans from an episode's
+    /// seed, not from observations (the error says so).
+    pub fn batch_policy(self, seed: u64, env: &FoosballConfig) -> Result<OwnedPolicy, String> {
         let mut controller: Box<dyn Opponent> = match self {
             ScriptedPolicy::Shooter => Box::new(Kicker::shooter()),
             ScriptedPolicy::Dribbler => Box::new(Kicker::dribbler()),
             ScriptedPolicy::Zero => Box::new(StaticOpponent),
             ScriptedPolicy::Random => Box::new(RandomOpponent),
+            ScriptedPolicy::Planner => {
+                return Err(
+                    "planner: it plans each episode from its seed with the simulator; it has no \
+                     policy of observations to play a match or a batch with"
+                        .into(),
+                );
+            }
         };
         let mut rng = EnvRng::seed_from_u64(seed);
         let (frame, map) = (env.ball_frame, env.action_map);
-        Box::new(move |obs: &[f32]| {
+        Ok(Box::new(move |obs: &[f32]| {
             obs.chunks_exact(OBS_DIM)
                 .flat_map(|row| {
                     let row: &[f32; OBS_DIM] = row.try_into().expect("chunks of OBS_DIM");
                     controller.act_in(map, &from_ball_frame(row, frame), &mut rng)
                 })
                 .collect::<Vec<f32>>()
-        })
+        }))
     }
 }
 
@@ -76,26 +93,54 @@ pub struct Baseline {
     pub seed: u64,
     /// The table it played on.
     pub env: FoosballConfig,
+    /// The planner's search budget (the planner only; its defaults when left out).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub planner: Option<PlannerConfig>,
 }
 
 impl Baseline {
     /// Plays `episodes` test episodes (trajectories recorded when `record`) and writes
     /// `metrics.json`, `metrics.md`, `trajectories.bin` and `baseline.toml` into `dir`.
+    /// The planner also writes `planner.json` (what its searches cost).
     pub fn test(&self, episodes: u32, dir: &Path, record: bool) -> Result<TestMetrics, PlayError> {
-        let metrics = write_test(dir, &self.play(episodes, record)?)?;
+        let (played, cost) = self.play_with_cost(episodes, record)?;
+        let metrics = write_test(dir, &played)?;
+        if let Some(cost) = cost {
+            cost.write(dir)?;
+        }
         self.write(dir)?;
         Ok(metrics)
     }
 
     /// Plays `episodes` test episodes (steps kept when `record`), in seed order.
     pub fn play(&self, episodes: u32, record: bool) -> Result<Vec<PlayedEpisode>, PlayError> {
+        Ok(self.play_with_cost(episodes, record)?.0)
+    }
+
+    /// [`Baseline::play`], with the planner's search cost.
+    fn play_with_cost(
+        &self,
+        episodes: u32,
+        record: bool,
+    ) -> Result<(Vec<PlayedEpisode>, Option<PlanCost>), PlayError> {
+        if self.policy == ScriptedPolicy::Planner {
+            let seeds: Vec<u64> = (0..u64::from(episodes))
+                .map(|k| derive_seed(self.seed, TEST_ENVS, k))
+                .collect();
+            let planner = self.planner.clone().unwrap_or_default();
+            let (played, cost) = play_planned(&self.env, &planner, &seeds, record)?;
+            return Ok((played, Some(cost)));
+        }
         if self.env.observation.kind != ObservationKind::State {
             return Err(PlayError::Env(format!(
                 "env.observation.kind: {} reads the 38-dim state; set it to \"state\"",
                 self.policy.name()
             )));
         }
-        let mut act = self.policy.batch_policy(self.seed, &self.env);
+        let mut act = self
+            .policy
+            .batch_policy(self.seed, &self.env)
+            .map_err(PlayError::Env)?;
         let episodes = Episodes {
             env: &self.env,
             seed: self.seed,
@@ -103,7 +148,7 @@ impl Baseline {
             n: episodes,
             record,
         };
-        play(act.as_mut(), &episodes)
+        Ok((play(act.as_mut(), &episodes)?, None))
     }
 
     /// Writes `dir/baseline.toml`.

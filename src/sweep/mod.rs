@@ -337,6 +337,7 @@ fn baseline_record(spec: &SweepSpec, policy: ScriptedPolicy) -> Baseline {
         policy,
         seed: spec.seeds[0],
         env: spec.runs[0].env.clone(),
+        planner: None,
     }
 }
 

@@ -11,6 +11,7 @@
 //! | [`LEARNER`]    | the learner's own stream (`index` 0: network init, sampling, noise) |
 //! | [`ACTION_SAMPLING`] | sampled (stochastic) evaluation actions; `index` is the episodes' stream ([`EVAL_ENVS`] or [`TEST_ENVS`]) |
 //! | [`MATCHES`] | two-sided matches of a league: `index` = the match's number among a pair's |
+//! | [`PLANNER`] | the planner's search for episode `index` of the stream it is tested on |
 
 /// Stream of the training environments.
 pub const TRAIN_ENVS: u64 = 1;
@@ -24,6 +25,8 @@ pub const LEARNER: u64 = 4;
 pub const ACTION_SAMPLING: u64 = 5;
 /// Stream of the matches of a league (serves, sampled actions, random players).
 pub const MATCHES: u64 = 6;
+/// Stream of the planner's searches (one per episode).
+pub const PLANNER: u64 = 7;
 
 /// One SplitMix64 output step.
 fn splitmix64(mut z: u64) -> u64 {
@@ -45,7 +48,15 @@ mod tests {
     #[test]
     fn streams_and_indices_give_distinct_seeds() {
         let mut seen = std::collections::HashSet::new();
-        for stream in [TRAIN_ENVS, EVAL_ENVS, TEST_ENVS, LEARNER, ACTION_SAMPLING] {
+        for stream in [
+            TRAIN_ENVS,
+            EVAL_ENVS,
+            TEST_ENVS,
+            LEARNER,
+            ACTION_SAMPLING,
+            MATCHES,
+            PLANNER,
+        ] {
             for index in 0..1000 {
                 assert!(seen.insert(derive_seed(7, stream, index)));
             }

@@ -1,0 +1,196 @@
+//! The cross-entropy method over open-loop plans, with the simulator itself as the model.
+//!
+//! A plan is `segments` actions (8 values each), each held for `segment_steps` agent steps,
+//! the last one to the episode's end. A candidate's value ([`Outcome::value`]: scoring
+//! soon, or the return) is that of the episode it plays from the start (`reset(seed)` and the plan, on a table of the same config): the
+//! table is deterministic given its seed and actions (the opponent and the noise included),
+//! so the value of a plan is exactly what playing it earns, and the search needs no
+//! snapshot of a table in motion. Each iteration:
+//!
+//! ```text
+//! candidates = [best so far] + (population - 1) x clip(mean + std * N(0, 1), -1, 1)
+//! elites     = the `elites` candidates of highest value (`objective`)
+//! mean, std  = their mean and standard deviation, per value (std >= min_std)
+//! ```
+//!
+//! stopping early when a candidate scores (`stop_when_scored`).
+
+use super::config::{Objective, PlannerConfig};
+use foosball_algos::EpisodeLog;
+use foosball_env::layout::ACTION_DIM;
+use foosball_env::{EnvError, EnvRng, FoosballEnv, FoosballInfo, Transition};
+use rand::{Rng, SeedableRng};
+use rand_distr::StandardNormal;
+
+/// One action per segment of a plan.
+pub type Plan = Vec<[f32; ACTION_DIM]>;
+
+/// What a rollout of a plan earned.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Outcome {
+    /// Undiscounted return.
+    pub ret: f64,
+    /// The ball entered black's goal.
+    pub scored: bool,
+    /// Agent steps played.
+    pub steps: u32,
+    /// Agent steps until the ball first entered black's goal (those played if never).
+    pub steps_to_goal: u32,
+    /// The ball's closest approach to the reward's goal point, cm.
+    pub closest_distance: f32,
+}
+
+impl Default for Outcome {
+    fn default() -> Self {
+        Self {
+            ret: 0.0,
+            scored: false,
+            steps: 0,
+            steps_to_goal: 0,
+            closest_distance: f32::INFINITY,
+        }
+    }
+}
+
+impl Outcome {
+    /// Its worth under `objective` (higher is better).
+    pub fn value(&self, objective: Objective) -> f64 {
+        match objective {
+            Objective::Return => self.ret,
+            Objective::Score if self.scored => 1e6 - f64::from(self.steps_to_goal),
+            Objective::Score => -f64::from(self.closest_distance),
+        }
+    }
+}
+
+impl EpisodeLog<FoosballEnv> for Outcome {
+    fn record(&mut self, _: &[f32], t: &Transition<FoosballInfo>) {
+        self.ret += f64::from(t.reward);
+        self.steps += 1;
+        if !self.scored {
+            self.steps_to_goal = self.steps;
+        }
+        self.scored |= t.info.scored();
+        self.closest_distance = self.closest_distance.min(t.info.goal_distance);
+    }
+}
+
+/// The plan a search found for one episode and what it cost.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Search {
+    /// The best plan found.
+    pub plan: Plan,
+    /// What it earns in the search's rollouts (capped at `max_rollout_steps`).
+    pub outcome: Outcome,
+    /// Rollouts played.
+    pub rollouts: u32,
+    /// Agent steps simulated over all rollouts.
+    pub simulated_steps: u64,
+}
+
+/// Plays `plan` on `env` from `reset(seed)`, `segment_steps` agent steps per action and
+/// the last action to the end, logging each step into `log`; stops at the episode's end or
+/// after `max_steps` agent steps.
+pub fn follow<L: EpisodeLog<FoosballEnv>>(
+    env: &mut FoosballEnv,
+    seed: u64,
+    plan: &[[f32; ACTION_DIM]],
+    segment_steps: usize,
+    max_steps: Option<u32>,
+    log: &mut L,
+) -> Result<(), EnvError> {
+    use foosball_env::Env;
+    let mut obs = vec![0.0; env.obs_dim()];
+    env.reset_into(Some(seed), &mut obs);
+    for t in 0.. {
+        if max_steps.is_some_and(|m| t >= m) {
+            break;
+        }
+        let action = &plan[(t as usize / segment_steps).min(plan.len() - 1)];
+        log.before_step(env);
+        let transition = env.step_into(action, &mut obs)?;
+        log.record(action, &transition);
+        if transition.done() {
+            break;
+        }
+    }
+    Ok(())
+}
+
+/// Searches a plan for the episode of `env`'s config reset from `seed`; the search's own
+/// draws come from `search_seed`, so the same call finds the same plan.
+pub fn search(
+    env: &mut FoosballEnv,
+    seed: u64,
+    search_seed: u64,
+    config: &PlannerConfig,
+) -> Result<Search, EnvError> {
+    let c = config;
+    let mut rng = EnvRng::seed_from_u64(search_seed);
+    let mut mean = vec![[0.0_f32; ACTION_DIM]; c.segments];
+    let mut std = vec![[c.initial_std; ACTION_DIM]; c.segments];
+    let mut rollouts = 0;
+    let mut simulated_steps = 0;
+    let mut rollout = |plan: &Plan| -> Result<Outcome, EnvError> {
+        let mut outcome = Outcome::default();
+        follow(
+            env,
+            seed,
+            plan,
+            c.segment_steps,
+            Some(c.max_rollout_steps),
+            &mut outcome,
+        )?;
+        rollouts += 1;
+        simulated_steps += u64::from(outcome.steps);
+        Ok(outcome)
+    };
+    let mut best = Search {
+        outcome: rollout(&mean)?,
+        plan: mean.clone(),
+        rollouts: 0,
+        simulated_steps: 0,
+    };
+    for _ in 0..c.iterations {
+        if c.stop_when_scored && best.outcome.scored {
+            break;
+        }
+        let mut scored: Vec<(Outcome, Plan)> = vec![(best.outcome, best.plan.clone())];
+        for _ in 1..c.population {
+            let plan: Plan = mean
+                .iter()
+                .zip(&std)
+                .map(|(m, s)| {
+                    core::array::from_fn(|i| {
+                        let z: f32 = rng.sample(StandardNormal);
+                        (m[i] + s[i] * z).clamp(-1.0, 1.0)
+                    })
+                })
+                .collect();
+            scored.push((rollout(&plan)?, plan));
+        }
+        // Highest value first; ties keep the earlier candidate (the best so far first).
+        let worth = |o: &Outcome| o.value(c.objective);
+        scored.sort_by(|a, b| worth(&b.0).total_cmp(&worth(&a.0)));
+        let elites = &scored[..c.elites];
+        let n = elites.len() as f32;
+        for k in 0..c.segments {
+            for i in 0..ACTION_DIM {
+                let m = elites.iter().map(|(_, p)| p[k][i]).sum::<f32>() / n;
+                let var = elites
+                    .iter()
+                    .map(|(_, p)| (p[k][i] - m).powi(2))
+                    .sum::<f32>()
+                    / n;
+                mean[k][i] = m;
+                std[k][i] = var.sqrt().max(c.min_std);
+            }
+        }
+        let (outcome, plan) = &scored[0];
+        best.outcome = *outcome;
+        best.plan.clone_from(plan);
+    }
+    best.rollouts = rollouts;
+    best.simulated_steps = simulated_steps;
+    Ok(best)
+}

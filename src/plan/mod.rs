@@ -1,0 +1,13 @@
+//! Planning with the simulator itself: an empirical ceiling of the task from given starts.
+//!
+//! - [`config`]: the search budget ([`PlannerConfig`], a `[planner]` TOML table);
+//! - [`cem`]: the cross-entropy method over open-loop plans, each candidate valued by
+//!   playing it on a table of the same config from the same seed.
+//!
+//! Reads only the environment crate; [`crate::play`] plays its plans as test episodes.
+
+pub mod cem;
+pub mod config;
+
+pub use cem::{Outcome, Plan, Search, follow, search};
+pub use config::{Objective, PlannerConfig};

@@ -1,0 +1,93 @@
+//! The planner ([`foosball_rl::plan`]): it finds scoring plans where doing nothing never
+//! scores, its plans replay exactly (the table is deterministic), the same seeds give the
+//! same episodes whatever the thread count, and bad budgets are refused by name.
+
+use foosball_rl::env::FoosballConfig;
+use foosball_rl::env::seeding::{TEST_ENVS, derive_seed};
+use foosball_rl::plan::PlannerConfig;
+use foosball_rl::play::evaluation::PlayedEpisode;
+use foosball_rl::play::planned::{PlanCost, play_planned};
+use foosball_rl::play::scripted::{Baseline, ScriptedPolicy};
+use std::process::Command;
+
+mod common;
+
+/// A small budget: 32 candidates x 4 iterations of 24 pieces of 5 steps.
+fn small() -> PlannerConfig {
+    PlannerConfig {
+        population: 32,
+        elites: 6,
+        iterations: 4,
+        ..PlannerConfig::default()
+    }
+}
+
+fn seeds(n: u64) -> Vec<u64> {
+    (0..n).map(|k| derive_seed(0, TEST_ENVS, k)).collect()
+}
+
+fn planned(threads: usize) -> (Vec<PlayedEpisode>, PlanCost) {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
+    let env = FoosballConfig::default();
+    pool.install(|| play_planned(&env, &small(), &seeds(12), false).unwrap())
+}
+
+#[test]
+fn the_planner_scores_where_doing_nothing_does_not_and_replays_exactly_on_any_thread_count() {
+    let (one, cost) = planned(1);
+    let (two, _) = planned(2);
+    assert_eq!(one, two, "the same episodes on 1 and 2 threads");
+    let scored = one.iter().filter(|e| e.summary.scored).count();
+    let zero = Baseline {
+        policy: ScriptedPolicy::Zero,
+        seed: 0,
+        env: FoosballConfig::default(),
+        planner: None,
+    };
+    let still = zero.play(12, false).unwrap();
+    assert_eq!(still.iter().filter(|e| e.summary.scored).count(), 0);
+    assert!(scored >= 7, "the planner scored {scored} of 12");
+    assert_eq!(cost.within_rollout_cap, 12);
+    assert_eq!(
+        cost.replayed_exactly, 12,
+        "every plan earns what its search predicted"
+    );
+    assert!(cost.rollouts_per_episode > 1.0 && cost.rollouts_per_episode <= 129.0);
+}
+
+#[test]
+fn evaluate_refuses_a_planner_budget_by_key_and_for_another_policy() {
+    let dir = common::scratch("planner-cli");
+    let bad = dir.join("bad.toml");
+    std::fs::write(&bad, "population = 8\nelites = 9\n").unwrap();
+    let evaluate = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_evaluate"))
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let o = evaluate(&["--policy", "planner", "--planner", bad.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("planner.elites = 9"),
+        "{err}"
+    );
+    assert!(
+        err.contains("bad.toml") && !err.contains("panicked"),
+        "{err}"
+    );
+    std::fs::write(&bad, "populaton = 8\n").unwrap();
+    let o = evaluate(&["--policy", "planner", "--planner", bad.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("populaton"), "{err}");
+    let o = evaluate(&["--policy", "shooter", "--planner", bad.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("--policy is shooter"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
