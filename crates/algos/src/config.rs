@@ -123,6 +123,10 @@ pub struct OffPolicyConfig {
     pub train_freq: u64,
     /// Gradient steps per training round.
     pub gradient_steps: usize,
+    /// Factor on every reward as the replay stores it (1: SB3's; the returns logged and
+    /// tested are the env's, unscaled). Under `reference` the shaping pays up to 300 per
+    /// step, so Q-values run to 1e4-1e5 against a temperature that starts at 1.
+    pub reward_scale: f32,
 }
 
 impl Default for OffPolicyConfig {
@@ -134,6 +138,7 @@ impl Default for OffPolicyConfig {
             tau: 0.005,
             train_freq: 1,
             gradient_steps: 1,
+            reward_scale: 1.0,
         }
     }
 }
@@ -153,6 +158,11 @@ impl OffPolicyConfig {
             self.gradient_steps > 0,
             "gradient_steps",
             "must be positive",
+        )?;
+        ensure(
+            self.reward_scale.is_finite() && self.reward_scale > 0.0,
+            "reward_scale",
+            "must be finite and positive",
         )
     }
 }

@@ -1,6 +1,6 @@
-//! What SAC and TD3 share: the replay buffer, uniform random actions before
-//! `learning_starts`, and the train-every-`train_freq`-steps schedule. The algorithm
-//! itself is an [`OffPolicyLearner`].
+//! What SAC and TD3 share: the replay buffer (rewards stored times `reward_scale`),
+//! uniform random actions before `learning_starts`, and the train-every-`train_freq`-steps
+//! schedule. The algorithm itself is an [`OffPolicyLearner`].
 
 use crate::agent::{ActMode, Agent, AgentError, Experience, Metrics};
 use crate::config::OffPolicyConfig;
@@ -108,7 +108,7 @@ impl<L: OffPolicyLearner> Agent for OffPolicy<L> {
             self.buffer.push(
                 &step.obs[i * o..(i + 1) * o],
                 &step.actions[i * a..(i + 1) * a],
-                step.rewards[i],
+                step.rewards[i] * self.schedule.reward_scale,
                 step.reached(i, o),
                 step.terminated[i],
                 step.truncated[i],
@@ -185,4 +185,86 @@ pub fn twin_mse(
     target: foosball_nets::Tensor<1>,
 ) -> foosball_nets::Tensor<1> {
     (q1 - target.clone()).square().mean() + (q2 - target).square().mean()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A learner that keeps the rewards of the minibatches it is given.
+    #[derive(Default)]
+    struct Recorder {
+        rewards: Vec<f32>,
+    }
+
+    impl OffPolicyLearner for Recorder {
+        fn policy_act(&mut self, obs: &[f32], _: ActMode, _: &mut ChaCha8Rng) -> Vec<f32> {
+            vec![0.0; obs.len()]
+        }
+        fn train_step(&mut self, batch: &ReplayBatch, _: f64, _: &mut ChaCha8Rng) -> Metrics {
+            self.rewards.extend_from_slice(&batch.rewards);
+            Metrics::default()
+        }
+        fn gradient_steps(&self) -> u64 {
+            0
+        }
+        fn save(&self, _: &Path) -> Result<(), AgentError> {
+            Ok(())
+        }
+        fn load(&mut self, _: &Path) -> Result<(), AgentError> {
+            Ok(())
+        }
+        fn save_state<'a>(&'a self, _: &mut Snapshot<'a>) {}
+        fn load_state(&mut self, _: &Snapshot<'_>) -> Result<(), SnapshotError> {
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn the_replay_stores_rewards_times_reward_scale() {
+        let schedule = OffPolicyConfig {
+            learning_starts: 0,
+            batch_size: 8,
+            reward_scale: 0.25,
+            ..OffPolicyConfig::default()
+        };
+        let lr = LrSchedule::Constant(1e-3);
+        let rng = ChaCha8Rng::seed_from_u64(0);
+        let mut agent = OffPolicy::new(
+            Recorder::default(),
+            (ObsShape::Vector(1), 1),
+            schedule,
+            lr,
+            rng,
+        );
+        for k in 0..4 {
+            let obs = [k as f32];
+            agent.observe(&Experience {
+                obs: &obs,
+                actions: &[0.0],
+                rewards: &[40.0 * (k + 1) as f32],
+                next_obs: &obs,
+                final_obs: vec![None],
+                terminated: &[false],
+                truncated: &[false],
+            });
+        }
+        agent.update(1.0);
+        let seen = &agent.learner().rewards;
+        assert_eq!(seen.len(), 8);
+        assert!(
+            seen.iter().all(|r| [10.0, 20.0, 30.0, 40.0].contains(r)),
+            "{seen:?}"
+        );
+        let bad = OffPolicyConfig {
+            reward_scale: 0.0,
+            ..OffPolicyConfig::default()
+        };
+        assert!(
+            bad.validate()
+                .unwrap_err()
+                .to_string()
+                .contains("reward_scale")
+        );
+    }
 }
