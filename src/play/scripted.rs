@@ -31,9 +31,9 @@ pub enum ScriptedPolicy {
     Zero,
     /// Every command uniform in [-1, 1] each step.
     Random,
-    /// Searches the simulator for the best plan of each episode from its start
-    /// ([`crate::plan`]) and plays it: the task's empirical ceiling from those starts, not
-    /// a policy of observations (it cannot play black in a match).
+    /// Searches the simulator for the best plan of each episode from its start and plays
+    /// it: the task's empirical ceiling from those starts (not a policy of observations:
+    /// it cannot play black in a match).
     Planner,
 }
 
