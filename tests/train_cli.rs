@@ -299,3 +299,36 @@ fn train_prints_its_budget_before_training() {
     assert!(!text.contains("more than a day"));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn recipe_options_train_save_reload_and_are_refused_where_they_do_not_apply() {
+    let dir = scratch("recipe");
+    let text = common::tiny_config_text("sac", 2, 150)
+        .replace("[sac.net]\n", "[sac.net]\ncritic_layer_norm = true\n")
+        .replace(
+            "[sac.off_policy]\n",
+            "[sac.off_policy]\nreward_scale = 0.01\n",
+        );
+    let config = dir.join("sac.toml");
+    std::fs::write(&config, text).unwrap();
+    let run_dir = dir.join("run");
+    let trained = run(&config, &run_dir, "1");
+    let saved = std::fs::read_to_string(run_dir.join("config.toml")).unwrap();
+    assert!(saved.contains("critic_layer_norm = true") && saved.contains("reward_scale = 0.01"));
+    // The normalised critics (gain and bias of each hidden layer) are saved and reloaded.
+    let plain_dir = dir.join("plain");
+    run(&tiny_config(&dir, "sac"), &plain_dir, "1");
+    let size = |d: &Path| std::fs::metadata(d.join("last/critic.bpk")).unwrap().len();
+    assert!(size(&run_dir) > size(&plain_dir));
+    let o = evaluate(&["--run", run_dir.to_str().unwrap(), "--checkpoint", "last"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let again = std::fs::read_to_string(run_dir.join("evaluate-last/metrics.json")).unwrap();
+    assert_eq!(again, trained);
+    let ppo = dir.join("ppo.toml");
+    let text = common::tiny_config_text("ppo", 1, 150)
+        .replace("[ppo.net]\n", "[ppo.net]\ncritic_layer_norm = true\n");
+    std::fs::write(&ppo, text).unwrap();
+    let e = refused(&["--config", ppo.to_str().unwrap()]);
+    assert!(e.contains("ppo.net.critic_layer_norm"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

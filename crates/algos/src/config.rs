@@ -41,6 +41,9 @@ pub struct NetConfig {
     /// The CNN in front of every network when observations are images (SB3's NatureCNN
     /// by default; each network has its own, the twin critics share one).
     pub cnn: CnnConfig,
+    /// Layer normalisation after every hidden layer of SAC's and TD3's Q-networks (their
+    /// targets too); off by default, as in SB3 and the paper.
+    pub critic_layer_norm: bool,
 }
 
 impl Default for NetConfig {
@@ -51,6 +54,7 @@ impl Default for NetConfig {
             lr: LrSchedule::Constant(3e-4),
             adam: AdamConfig::default(),
             cnn: CnnConfig::default(),
+            critic_layer_norm: false,
         }
     }
 }
@@ -70,6 +74,7 @@ impl NetConfig {
             hidden: &self.hidden,
             activation: self.activation,
             cnn: &self.cnn,
+            critic_layer_norm: self.critic_layer_norm,
             rng,
             device,
         }

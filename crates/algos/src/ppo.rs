@@ -65,6 +65,7 @@ impl Default for PpoConfig {
                     ..AdamConfig::default()
                 },
                 cnn: CnnConfig::default(),
+                critic_layer_norm: false,
             },
             n_steps: 2048,
             batch_size: 64,
@@ -84,6 +85,11 @@ impl PpoConfig {
     /// Rejects invalid settings, naming the key.
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.net.validate().map_err(|e| e.under("net"))?;
+        ensure(
+            !self.net.critic_layer_norm,
+            "net.critic_layer_norm",
+            "applies to SAC's and TD3's Q-networks; PPO's value network has none",
+        )?;
         ensure(self.n_steps > 0, "n_steps", "must be positive")?;
         ensure(self.batch_size > 1, "batch_size", "must be at least 2")?;
         ensure(self.n_epochs > 0, "n_epochs", "must be positive")?;

@@ -19,7 +19,7 @@ pub struct QNetwork {
 impl QNetwork {
     /// Parameters drawn next from `init`'s RNG, for `features`-wide inputs.
     pub fn new(init: &mut NetInit<'_, impl Rng>, features: usize) -> Self {
-        let net = init.mlp(features + init.action_dim, 1);
+        let net = init.q_mlp(features + init.action_dim, 1);
         Self { net }
     }
 

@@ -47,6 +47,9 @@ pub struct NetInit<'a, R: Rng> {
     pub activation: crate::Activation,
     /// The CNN in front of each network when the observation is an image.
     pub cnn: &'a crate::CnnConfig,
+    /// Layer normalisation after every hidden layer of the Q-networks
+    /// ([`NetInit::q_mlp`]).
+    pub critic_layer_norm: bool,
     /// Where parameters are drawn from.
     pub rng: &'a mut R,
     /// Where parameters live (an autodiff device to train them).
@@ -74,6 +77,20 @@ impl<R: Rng> NetInit<'_, R> {
             self.hidden,
             output,
             self.activation,
+            self.rng,
+            self.device,
+        )
+    }
+
+    /// An MLP of a Q-network, `input -> hidden -> output`, drawn next from the RNG, with
+    /// layer normalisation when `critic_layer_norm`.
+    pub fn q_mlp(&mut self, input: usize, output: usize) -> crate::Mlp {
+        crate::Mlp::with_layer_norm(
+            input,
+            self.hidden,
+            output,
+            self.activation,
+            self.critic_layer_norm,
             self.rng,
             self.device,
         )

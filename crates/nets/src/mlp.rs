@@ -2,7 +2,7 @@
 
 use crate::init::linear;
 use burn::module::Module;
-use burn::nn::Linear;
+use burn::nn::{LayerNorm, LayerNormConfig, Linear};
 use burn::tensor::activation::{relu, tanh};
 use burn::tensor::{Device, Tensor};
 use rand::Rng;
@@ -28,10 +28,14 @@ impl Activation {
 }
 
 /// `input -> hidden[0] -> ... -> hidden[k-1] -> output`, the activation after every
-/// hidden layer and none after the output layer. Maps `[batch, input]` to `[batch, output]`.
+/// hidden layer and none after the output layer; with layer normalisation, each hidden
+/// layer's output is normalised over its units (learned gain 1 and bias 0 at the start,
+/// epsilon 1e-5) before the activation. Maps `[batch, input]` to `[batch, output]`.
 #[derive(Module, Debug)]
 pub struct Mlp {
     layers: Vec<Linear>,
+    /// One per hidden layer, or none.
+    norms: Vec<LayerNorm>,
     #[module(skip)]
     activation: Activation,
 }
@@ -46,6 +50,20 @@ impl Mlp {
         rng: &mut impl Rng,
         device: &Device,
     ) -> Self {
+        Self::with_layer_norm(input, hidden, output, activation, false, rng, device)
+    }
+
+    /// [`Mlp::new`], with a layer normalisation after every hidden layer when
+    /// `layer_norm` (it draws nothing from `rng`: the linear layers are the same).
+    pub fn with_layer_norm(
+        input: usize,
+        hidden: &[usize],
+        output: usize,
+        activation: Activation,
+        layer_norm: bool,
+        rng: &mut impl Rng,
+        device: &Device,
+    ) -> Self {
         let widths: Vec<usize> = std::iter::once(input)
             .chain(hidden.iter().copied())
             .chain(std::iter::once(output))
@@ -54,7 +72,18 @@ impl Mlp {
             .windows(2)
             .map(|w| linear(w[0], w[1], rng, device))
             .collect();
-        Self { layers, activation }
+        let norms = match layer_norm {
+            true => hidden
+                .iter()
+                .map(|&w| LayerNormConfig::new(w).init(device))
+                .collect(),
+            false => Vec::new(),
+        };
+        Self {
+            layers,
+            norms,
+            activation,
+        }
     }
 
     /// `[batch, input] -> [batch, output]`.
@@ -62,11 +91,14 @@ impl Mlp {
         let last = self.layers.len() - 1;
         self.layers.iter().enumerate().fold(x, |x, (i, layer)| {
             let y = layer.forward(x);
-            if i < last {
-                self.activation.apply(y)
-            } else {
-                y
+            if i == last {
+                return y;
             }
+            let y = match self.norms.get(i) {
+                Some(norm) => norm.forward(y),
+                None => y,
+            };
+            self.activation.apply(y)
         })
     }
 
@@ -132,5 +164,46 @@ mod tests {
         for (a, b) in y.iter().zip(&h) {
             assert!((a - b).abs() < 1e-5, "{y:?} vs {h:?}");
         }
+    }
+
+    #[test]
+    fn layer_norm_normalises_each_hidden_layer_and_draws_the_same_linears() {
+        let device = Backend::default_cpu().unwrap().device().unwrap();
+        let plain = Mlp::new(
+            3,
+            &[4],
+            1,
+            Activation::Relu,
+            &mut ChaCha8Rng::seed_from_u64(3),
+            &device,
+        );
+        let normed = Mlp::with_layer_norm(
+            3,
+            &[4],
+            1,
+            Activation::Relu,
+            true,
+            &mut ChaCha8Rng::seed_from_u64(3),
+            &device,
+        );
+        assert_eq!(normed.num_params(), plain.num_params() + 2 * 4);
+        let read = |t: Tensor<2>| t.into_data().try_into_vec::<f32>().unwrap();
+        let weights = |m: &Mlp, i: usize| read(m.layers[i].weight.val());
+        assert_eq!(weights(&plain, 0), weights(&normed, 0));
+        assert_eq!(weights(&plain, 1), weights(&normed, 1));
+        // By hand: h = relu(layer_norm(x W0 + b0)), y = h W1 + b1.
+        let x = Tensor::from_data(TensorData::new(vec![0.5f32, -1.0, 2.0], [1, 3]), &device);
+        let z = read(normed.layers[0].forward(x.clone()));
+        let mean = z.iter().sum::<f32>() / 4.0;
+        let var = z.iter().map(|v| (v - mean).powi(2)).sum::<f32>() / 4.0;
+        let h: Vec<f32> = z
+            .iter()
+            .map(|v| ((v - mean) / (var + 1e-5).sqrt()).max(0.0))
+            .collect();
+        let w1 = weights(&normed, 1);
+        let b1 = read(normed.layers[1].bias.as_ref().unwrap().val().unsqueeze())[0];
+        let expected = b1 + h.iter().zip(&w1).map(|(a, b)| a * b).sum::<f32>();
+        let y = read(normed.forward(x))[0];
+        assert!((y - expected).abs() < 1e-5, "{y} vs {expected}");
     }
 }
