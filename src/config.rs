@@ -83,6 +83,18 @@ impl Checkpoint {
     }
 }
 
+/// What makes an evaluation the best so far (the networks kept in `best/`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BestBy {
+    /// The highest mean return (SB3's `EvalCallback`, the paper code's `best_model.zip`).
+    #[default]
+    Return,
+    /// The highest score rate, ties broken by the mean return (under `reference` the
+    /// return rewards a slowly advancing ball more than a goal: docs/planner.md).
+    ScoreRate,
+}
+
 /// The training and testing protocol (the paper's by default).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -106,6 +118,8 @@ pub struct Protocol {
     /// `best` (of the best evaluation by mean return, as the paper code's test loads
     /// SB3's `best_model.zip`).
     pub test_networks: Checkpoint,
+    /// What makes an evaluation the best so far: `return` (default) or `score_rate`.
+    pub best_by: BestBy,
     /// Rollout workers (environments stepped together).
     pub envs: usize,
     /// Rayon threads for env workers and the backend; 0 means one per core.
@@ -138,6 +152,7 @@ impl Default for Protocol {
             test_episodes: 1_000,
             test_actions: TestActions::Deterministic,
             test_networks: Checkpoint::Last,
+            best_by: BestBy::Return,
             envs: 1,
             threads: 0,
             backend: None,

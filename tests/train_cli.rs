@@ -308,13 +308,15 @@ fn recipe_options_train_save_reload_and_are_refused_where_they_do_not_apply() {
         .replace(
             "[sac.off_policy]\n",
             "[sac.off_policy]\nreward_scale = 0.01\n",
-        );
+        )
+        .replace("[protocol]\n", "[protocol]\nbest_by = \"score_rate\"\n");
     let config = dir.join("sac.toml");
     std::fs::write(&config, text).unwrap();
     let run_dir = dir.join("run");
     let trained = run(&config, &run_dir, "1");
     let saved = std::fs::read_to_string(run_dir.join("config.toml")).unwrap();
     assert!(saved.contains("critic_layer_norm = true") && saved.contains("reward_scale = 0.01"));
+    assert!(saved.contains("best_by = \"score_rate\"") && run_dir.join("best").is_dir());
     // The normalised critics (gain and bias of each hidden layer) are saved and reloaded.
     let plain_dir = dir.join("plain");
     run(&tiny_config(&dir, "sac"), &plain_dir, "1");
