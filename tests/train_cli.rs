@@ -304,7 +304,10 @@ fn train_prints_its_budget_before_training() {
 fn recipe_options_train_save_reload_and_are_refused_where_they_do_not_apply() {
     let dir = scratch("recipe");
     let text = common::tiny_config_text("sac", 2, 150)
-        .replace("[sac.net]\n", "[sac.net]\ncritic_layer_norm = true\n")
+        .replace(
+            "[sac.net]\n",
+            "[sac]\nactor_average_tau = 0.01\n[sac.net]\ncritic_layer_norm = true\n",
+        )
         .replace(
             "[sac.off_policy]\n",
             "[sac.off_policy]\nreward_scale = 0.01\n",
@@ -317,6 +320,8 @@ fn recipe_options_train_save_reload_and_are_refused_where_they_do_not_apply() {
     let saved = std::fs::read_to_string(run_dir.join("config.toml")).unwrap();
     assert!(saved.contains("critic_layer_norm = true") && saved.contains("reward_scale = 0.01"));
     assert!(saved.contains("best_by = \"score_rate\"") && run_dir.join("best").is_dir());
+    assert!(saved.contains("actor_average_tau = 0.01"));
+    assert!(run_dir.join("last/actor_average.bpk").is_file());
     // The normalised critics (gain and bias of each hidden layer) are saved and reloaded.
     let plain_dir = dir.join("plain");
     run(&tiny_config(&dir, "sac"), &plain_dir, "1");

@@ -41,6 +41,12 @@ pub struct SacConfig {
     pub target_entropy: Option<f32>,
     /// Gradient steps between target updates.
     pub target_update_interval: u64,
+    /// Polyak coefficient of an averaged copy of the actor, `avg <- (1 - tau) avg +
+    /// tau actor` after every actor step: deterministic actions (evaluations and a
+    /// deterministic test) come from it, exploration and sampled actions from the actor
+    /// itself. Absent (default): no average, SB3's SAC.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub actor_average_tau: Option<f32>,
 }
 
 impl Default for SacConfig {
@@ -52,6 +58,7 @@ impl Default for SacConfig {
             init_alpha: 1.0,
             target_entropy: None,
             target_update_interval: 1,
+            actor_average_tau: None,
         }
     }
 }
@@ -78,6 +85,11 @@ impl SacConfig {
             self.target_update_interval > 0,
             "target_update_interval",
             "must be positive",
+        )?;
+        ensure(
+            self.actor_average_tau.is_none_or(|t| t > 0.0 && t <= 1.0),
+            "actor_average_tau",
+            "must be in (0, 1]",
         )
     }
 }
@@ -148,6 +160,8 @@ pub struct Sac {
     action_dim: usize,
     device: Device,
     actor: SquashedGaussianActor,
+    /// The Polyak-averaged actor (`actor_average_tau`), outside the graph.
+    actor_average: Option<SquashedGaussianActor>,
     critic: TwinQ,
     critic_target: TwinQ,
     temperature: Temperature,
@@ -178,6 +192,7 @@ impl Sac {
         let actor = SquashedGaussianActor::new(&mut init);
         let critic = TwinQ::new(&mut init);
         let critic_target = critic.clone().no_grad();
+        let actor_average = config.actor_average_tau.map(|_| actor.clone().no_grad());
         let adam = || Adam::new(n.adam.clone());
         let learner = Sac {
             obs_dim,
@@ -188,6 +203,7 @@ impl Sac {
             critic_optim: adam(),
             temperature_optim: adam(),
             actor,
+            actor_average,
             critic,
             critic_target,
             gradient_steps: 0,
@@ -225,7 +241,10 @@ impl OffPolicyLearner for Sac {
         let device = self.device.clone().without_autodiff();
         let obs = matrix(obs, self.obs_dim, &device);
         let actions = match mode {
-            ActMode::Deterministic => actor.deterministic(obs),
+            ActMode::Deterministic => match &self.actor_average {
+                Some(average) => average.valid().deterministic(obs),
+                None => actor.deterministic(obs),
+            },
             ActMode::Explore | ActMode::Sample => {
                 let n = obs.dims()[0];
                 let noise = matrix(
@@ -297,6 +316,10 @@ impl OffPolicyLearner for Sac {
         let actor_report = self
             .actor_optim
             .step_in_place(&mut self.actor, &mut grads, lr);
+        if let (Some(average), Some(tau)) = (&mut self.actor_average, self.config.actor_average_tau)
+        {
+            polyak_update(average, &self.actor, tau);
+        }
 
         // 5. Targets.
         self.gradient_steps += 1;
@@ -332,6 +355,9 @@ impl OffPolicyLearner for Sac {
         save_module(&self.critic, &dir.join("critic.bpk"))?;
         save_module(&self.critic_target, &dir.join("critic_target.bpk"))?;
         save_module(&self.temperature, &dir.join("temperature.bpk"))?;
+        if let Some(average) = &self.actor_average {
+            save_module(average, &dir.join("actor_average.bpk"))?;
+        }
         Ok(())
     }
 
@@ -341,6 +367,9 @@ impl OffPolicyLearner for Sac {
         self.critic_target =
             load_module(self.critic_target.clone(), &dir.join("critic_target.bpk"))?;
         self.temperature = load_module(self.temperature.clone(), &dir.join("temperature.bpk"))?;
+        if let Some(average) = self.actor_average.take() {
+            self.actor_average = Some(load_module(average, &dir.join("actor_average.bpk"))?);
+        }
         Ok(())
     }
 
@@ -402,5 +431,70 @@ mod tests {
         assert!((temperature_gradient(&[-2.0, -4.0], -1.0) - 4.0).abs() < 1e-6);
         // Entropy -2 < target -1: gradient -1, descent raises alpha.
         assert!((temperature_gradient(&[2.0, 2.0], -1.0) + 1.0).abs() < 1e-6);
+    }
+
+    /// A 3 -> 2 SAC agent with 8-wide networks after `steps` env steps of replay and
+    /// updates, and its deterministic actions on a fixed batch: the agent's and the live
+    /// actor's.
+    fn averaged(tau: Option<f32>, steps: usize) -> (Vec<f32>, Vec<f32>) {
+        use crate::agent::{Agent, Experience};
+        let mut c = SacConfig::default();
+        c.net.hidden = vec![8];
+        c.off_policy.learning_starts = 0;
+        c.off_policy.batch_size = 4;
+        c.actor_average_tau = tau;
+        let device = device();
+        let mut agent = Sac::agent(3, 2, c, 5, &device);
+        for k in 0..steps {
+            let obs = [k as f32 * 0.1, 0.5, -0.2];
+            agent.observe(&Experience {
+                obs: &obs,
+                actions: &[0.3, -0.6],
+                rewards: &[1.0 + k as f32],
+                next_obs: &obs,
+                final_obs: vec![None],
+                terminated: &[false],
+                truncated: &[false],
+            });
+            agent.update(1.0);
+        }
+        let batch = [0.2, -0.1, 0.4, 0.0, 0.3, -0.5];
+        let live = host(agent.learner().actor().valid().deterministic(matrix(
+            &batch,
+            3,
+            &device.clone().without_autodiff(),
+        )));
+        (agent.act(&batch, ActMode::Deterministic), live)
+    }
+
+    #[test]
+    fn the_averaged_actor_acts_deterministically_and_follows_the_actor_by_tau() {
+        let (plain, live) = averaged(None, 6);
+        assert_eq!(plain, live, "no average: the actor itself");
+        let (full, live) = averaged(Some(1.0), 6);
+        assert_eq!(full, live, "tau 1: the average is the actor");
+        let (slow, live) = averaged(Some(1e-4), 6);
+        let (start, _) = averaged(Some(1e-4), 0);
+        let gap = |a: &[f32], b: &[f32]| {
+            a.iter()
+                .zip(b)
+                .map(|(x, y)| (x - y).abs())
+                .fold(0.0, f32::max)
+        };
+        assert!(
+            gap(&slow, &live) > 1e-4,
+            "the actor moved away from its slow average"
+        );
+        assert!(gap(&slow, &start) < 1e-3 * gap(&live, &start).max(1e-3));
+        let bad = SacConfig {
+            actor_average_tau: Some(0.0),
+            ..SacConfig::default()
+        };
+        assert!(
+            bad.validate()
+                .unwrap_err()
+                .to_string()
+                .contains("actor_average_tau")
+        );
     }
 }
