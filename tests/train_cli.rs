@@ -310,7 +310,7 @@ fn recipe_options_train_save_reload_and_are_refused_where_they_do_not_apply() {
         )
         .replace(
             "[sac.off_policy]\n",
-            "[sac.off_policy]\nreward_scale = 0.01\n",
+            "[sac.off_policy]\nreward_scale = 0.01\nn_step = 3\n",
         )
         .replace("[protocol]\n", "[protocol]\nbest_by = \"score_rate\"\n");
     let config = dir.join("sac.toml");
@@ -320,7 +320,7 @@ fn recipe_options_train_save_reload_and_are_refused_where_they_do_not_apply() {
     let saved = std::fs::read_to_string(run_dir.join("config.toml")).unwrap();
     assert!(saved.contains("critic_layer_norm = true") && saved.contains("reward_scale = 0.01"));
     assert!(saved.contains("best_by = \"score_rate\"") && run_dir.join("best").is_dir());
-    assert!(saved.contains("actor_average_tau = 0.01"));
+    assert!(saved.contains("actor_average_tau = 0.01") && saved.contains("n_step = 3"));
     assert!(run_dir.join("last/actor_average.bpk").is_file());
     // The normalised critics (gain and bias of each hidden layer) are saved and reloaded.
     let plain_dir = dir.join("plain");

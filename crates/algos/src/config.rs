@@ -132,6 +132,11 @@ pub struct OffPolicyConfig {
     /// tested are the env's, unscaled). Under `reference` the shaping pays up to 300 per
     /// step, so Q-values run to 1e4-1e5 against a temperature that starts at 1.
     pub reward_scale: f32,
+    /// Steps of the return each stored transition sums (1: SB3's one-step targets): the
+    /// replay holds `(s_t, a_t, sum_k gamma^k r_(t+k), s_(t+n))` and the critics
+    /// bootstrap with `gamma^n`; windows cut by a termination are stored shorter (they do
+    /// not bootstrap), windows cut shorter than `n` by a truncation are dropped.
+    pub n_step: usize,
 }
 
 impl Default for OffPolicyConfig {
@@ -144,6 +149,7 @@ impl Default for OffPolicyConfig {
             train_freq: 1,
             gradient_steps: 1,
             reward_scale: 1.0,
+            n_step: 1,
         }
     }
 }
@@ -168,6 +174,12 @@ impl OffPolicyConfig {
             self.reward_scale.is_finite() && self.reward_scale > 0.0,
             "reward_scale",
             "must be finite and positive",
-        )
+        )?;
+        ensure(self.n_step > 0, "n_step", "must be positive")
+    }
+
+    /// The critics' discount of the bootstrapped value: `gamma^n_step`.
+    pub fn bootstrap_discount(&self, gamma: f32) -> f32 {
+        gamma.powi(self.n_step as i32)
     }
 }

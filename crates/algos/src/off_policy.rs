@@ -1,6 +1,7 @@
-//! What SAC and TD3 share: the replay buffer (rewards stored times `reward_scale`),
-//! uniform random actions before `learning_starts`, and the train-every-`train_freq`-steps
-//! schedule. The algorithm itself is an [`OffPolicyLearner`].
+//! What SAC and TD3 share: the replay buffer (rewards stored times `reward_scale`, summed
+//! over `n_step` steps), uniform random actions before `learning_starts`, and the
+//! train-every-`train_freq`-steps schedule. The algorithm itself is an
+//! [`OffPolicyLearner`].
 
 use crate::agent::{ActMode, Agent, AgentError, Experience, Metrics};
 use crate::config::OffPolicyConfig;
@@ -9,6 +10,7 @@ use crate::schedule::LrSchedule;
 use foosball_nets::{ObsShape, Snapshot, SnapshotError};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use std::collections::VecDeque;
 use std::path::Path;
 
 /// The algorithm-specific half of an off-policy agent.
@@ -42,15 +44,29 @@ pub struct OffPolicy<L> {
     sample_rng: ChaCha8Rng,
     env_steps: u64,
     steps_since_train: u64,
+    /// The learner's discount, for `n_step` returns.
+    gamma: f32,
+    /// Per env, the steps whose `n_step` return is still being summed, oldest first.
+    windows: Vec<VecDeque<Pending>>,
+}
+
+/// A step waiting for the rewards of its `n_step` window.
+#[derive(Clone, Debug, PartialEq)]
+struct Pending {
+    obs: Vec<f32>,
+    action: Vec<f32>,
+    /// Already times `reward_scale`.
+    reward: f32,
 }
 
 impl<L: OffPolicyLearner> OffPolicy<L> {
     /// Wraps `learner` for an env of `obs`/`action_dim`, trained on `schedule` with
-    /// learning rate `lr`; `rng` draws random actions, minibatches and noise.
+    /// discount `gamma` (for `n_step` returns) and learning rate `lr`; `rng` draws random
+    /// actions, minibatches and noise.
     pub fn new(
         learner: L,
         (obs, action_dim): (ObsShape, usize),
-        schedule: OffPolicyConfig,
+        (schedule, gamma): (OffPolicyConfig, f32),
         lr: LrSchedule,
         rng: ChaCha8Rng,
     ) -> Self {
@@ -67,7 +83,22 @@ impl<L: OffPolicyLearner> OffPolicy<L> {
             rng,
             env_steps: 0,
             steps_since_train: 0,
+            gamma,
+            windows: Vec::new(),
         }
+    }
+
+    /// Stores the oldest step of `window` with the discounted sum of the window's rewards,
+    /// reaching `reached`, and drops it from the window.
+    fn store_oldest(&mut self, env: usize, reached: &[f32], terminated: bool, timeout: bool) {
+        let window = &mut self.windows[env];
+        let ret = window
+            .iter()
+            .rev()
+            .fold(0.0_f32, |acc, p| p.reward + self.gamma * acc);
+        let first = window.pop_front().expect("a window holds a step");
+        self.buffer
+            .push(&first.obs, &first.action, ret, reached, terminated, timeout);
     }
 
     /// The algorithm.
@@ -103,16 +134,28 @@ impl<L: OffPolicyLearner> Agent for OffPolicy<L> {
     }
 
     fn observe(&mut self, step: &Experience<'_>) {
-        let (o, a) = (self.obs_dim(), self.action_dim());
+        let (o, a, n) = (self.obs_dim(), self.action_dim(), self.schedule.n_step);
+        self.windows.resize(step.len(), VecDeque::new());
         for i in 0..step.len() {
-            self.buffer.push(
-                &step.obs[i * o..(i + 1) * o],
-                &step.actions[i * a..(i + 1) * a],
-                step.rewards[i] * self.schedule.reward_scale,
-                step.reached(i, o),
-                step.terminated[i],
-                step.truncated[i],
-            );
+            self.windows[i].push_back(Pending {
+                obs: step.obs[i * o..(i + 1) * o].to_vec(),
+                action: step.actions[i * a..(i + 1) * a].to_vec(),
+                reward: step.rewards[i] * self.schedule.reward_scale,
+            });
+            let reached = step.reached(i, o);
+            let (terminated, truncated) = (step.terminated[i], step.truncated[i]);
+            if terminated {
+                // Every window ends here, none bootstraps.
+                while !self.windows[i].is_empty() {
+                    self.store_oldest(i, reached, true, truncated);
+                }
+            } else if self.windows[i].len() == n {
+                self.store_oldest(i, reached, false, truncated);
+            }
+            if truncated {
+                // Windows shorter than n would bootstrap with the wrong discount.
+                self.windows[i].clear();
+            }
         }
         self.env_steps += step.len() as u64;
         self.steps_since_train += 1;
@@ -154,6 +197,17 @@ impl<L: OffPolicyLearner> Agent for OffPolicy<L> {
         snap.put_rng("agent.rng", &self.rng);
         snap.put_u64("agent.env_steps", self.env_steps);
         snap.put_u64("agent.steps_since_train", self.steps_since_train);
+        if self.schedule.n_step > 1 {
+            let lens: Vec<u64> = self.windows.iter().map(|w| w.len() as u64).collect();
+            let values: Vec<f32> = self
+                .windows
+                .iter()
+                .flatten()
+                .flat_map(|p| p.obs.iter().chain(&p.action).chain([&p.reward]).copied())
+                .collect();
+            snap.put_u64s("agent.windows.len", lens);
+            snap.put_f32("agent.windows", values);
+        }
         self.buffer.save_state(snap, "replay");
         self.learner.save_state(snap);
     }
@@ -162,6 +216,25 @@ impl<L: OffPolicyLearner> Agent for OffPolicy<L> {
         self.rng = snap.rng("agent.rng")?;
         self.env_steps = snap.u64("agent.env_steps")?;
         self.steps_since_train = snap.u64("agent.steps_since_train")?;
+        self.windows.clear();
+        if self.schedule.n_step > 1 {
+            let (o, a) = (self.obs_dim, self.action_dim);
+            let lens = snap.u64s("agent.windows.len")?;
+            let total: u64 = lens.iter().sum();
+            let values = snap.f32s_of_len("agent.windows", total as usize * (o + a + 1))?;
+            let mut rows = values.chunks_exact(o + a + 1);
+            for &len in lens {
+                let window = (0..len)
+                    .filter_map(|_| rows.next())
+                    .map(|r| Pending {
+                        obs: r[..o].to_vec(),
+                        action: r[o..o + a].to_vec(),
+                        reward: r[o + a],
+                    })
+                    .collect();
+                self.windows.push(window);
+            }
+        }
         self.buffer.load_state(snap, "replay")?;
         self.learner.load_state(snap)
     }
@@ -191,10 +264,12 @@ pub fn twin_mse(
 mod tests {
     use super::*;
 
-    /// A learner that keeps the rewards of the minibatches it is given.
+    /// A learner that keeps the rows of the minibatches it is given.
     #[derive(Default)]
     struct Recorder {
         rewards: Vec<f32>,
+        /// `(obs[0], reward, next_obs[0], done)` of each row.
+        rows: Vec<(f32, f32, f32, f32)>,
     }
 
     impl OffPolicyLearner for Recorder {
@@ -203,6 +278,15 @@ mod tests {
         }
         fn train_step(&mut self, batch: &ReplayBatch, _: f64, _: &mut ChaCha8Rng) -> Metrics {
             self.rewards.extend_from_slice(&batch.rewards);
+            for k in 0..batch.rewards.len() {
+                let row = (
+                    batch.obs[k],
+                    batch.rewards[k],
+                    batch.next_obs[k],
+                    batch.dones[k],
+                );
+                self.rows.push(row);
+            }
             Metrics::default()
         }
         fn gradient_steps(&self) -> u64 {
@@ -233,7 +317,7 @@ mod tests {
         let mut agent = OffPolicy::new(
             Recorder::default(),
             (ObsShape::Vector(1), 1),
-            schedule,
+            (schedule, 0.99),
             lr,
             rng,
         );
@@ -266,5 +350,66 @@ mod tests {
                 .to_string()
                 .contains("reward_scale")
         );
+    }
+
+    /// One env step of a 1-dim env: observation `k`, reward `k + 1`, reaching `next`.
+    fn step(agent: &mut OffPolicy<Recorder>, k: usize, next: f32, ended: (bool, bool)) {
+        let (obs, next) = ([k as f32], [next]);
+        agent.observe(&Experience {
+            obs: &obs,
+            actions: &[0.0],
+            rewards: &[k as f32 + 1.0],
+            next_obs: &next,
+            final_obs: vec![(ended.0 || ended.1).then_some(&next[..])],
+            terminated: &[ended.0],
+            truncated: &[ended.1],
+        });
+    }
+
+    #[test]
+    fn n_step_windows_sum_discounted_rewards_end_at_terminations_and_survive_a_snapshot() {
+        let schedule = OffPolicyConfig {
+            learning_starts: 0,
+            batch_size: 64,
+            n_step: 3,
+            ..OffPolicyConfig::default()
+        };
+        let new = || {
+            let rng = ChaCha8Rng::seed_from_u64(1);
+            let lr = LrSchedule::Constant(1e-3);
+            let shape = (ObsShape::Vector(1), 1);
+            OffPolicy::new(Recorder::default(), shape, (schedule.clone(), 0.5), lr, rng)
+        };
+        let mut agent = new();
+        for k in 0..4 {
+            step(&mut agent, k, k as f32 + 1.0, (false, false));
+        }
+        // Two windows are in flight (steps 2 and 3): a snapshot carries them over.
+        let mut snap = Snapshot::new();
+        agent.save_state(&mut snap);
+        let path = std::env::temp_dir().join(format!("n-step-{}.bin", std::process::id()));
+        snap.write(&path).unwrap();
+        let mut agent = new();
+        agent.load_state(&Snapshot::read(&path).unwrap()).unwrap();
+        std::fs::remove_file(&path).unwrap();
+        step(&mut agent, 4, 100.0, (true, false));
+        // A new episode cut by a time limit after 2 steps leaves nothing (window < 3).
+        step(&mut agent, 5, 6.0, (false, false));
+        step(&mut agent, 6, 200.0, (false, true));
+        agent.update(1.0);
+        let expected = [
+            (0.0, 1.0 + 0.5 * 2.0 + 0.25 * 3.0, 3.0, 0.0),
+            (1.0, 2.0 + 0.5 * 3.0 + 0.25 * 4.0, 4.0, 0.0),
+            (2.0, 3.0 + 0.5 * 4.0 + 0.25 * 5.0, 100.0, 1.0),
+            (3.0, 4.0 + 0.5 * 5.0, 100.0, 1.0),
+            (4.0, 5.0, 100.0, 1.0),
+        ];
+        let rows = &agent.learner().rows;
+        assert_eq!(rows.len(), 64);
+        for e in expected {
+            assert!(rows.contains(&e), "{e:?} never sampled: {rows:?}");
+        }
+        assert!(rows.iter().all(|r| expected.contains(r)), "{rows:?}");
+        assert_eq!(schedule.bootstrap_discount(0.5), 0.125);
     }
 }

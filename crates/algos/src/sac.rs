@@ -4,7 +4,8 @@
 //! 1. `a~, log pi(a~|s)` from the current actor (reparameterised);
 //! 2. temperature: `L(log alpha) = -mean(log alpha * (log pi(a~|s) + H_target))`,
 //!    `H_target = -dim(A)`; `alpha` used below is the value *before* this step;
-//! 3. critics: `y = r + gamma (1 - d) (min(Q1', Q2')(s', a') - alpha log pi(a'|s'))`,
+//! 3. critics: `y = r + gamma (1 - d) (min(Q1', Q2')(s', a') - alpha log pi(a'|s'))`
+//!    (`gamma^n` with `n_step` returns),
 //!    `a' ~ pi(.|s')`; `L = 0.5 * (MSE(Q1(s, a), y) + MSE(Q2(s, a), y))`;
 //! 4. actor, against the *updated* critics: `L = mean(alpha log pi(a~|s) - min(Q1, Q2)(s, a~))`;
 //! 5. targets: `theta' <- tau theta + (1 - tau) theta'` every `target_update_interval` steps.
@@ -210,7 +211,8 @@ impl Sac {
             config,
         };
         let (schedule, lr) = (learner.config.off_policy.clone(), learner.config.net.lr);
-        OffPolicy::new(learner, (obs, action_dim), schedule, lr, rng)
+        let gamma = learner.config.gamma;
+        OffPolicy::new(learner, (obs, action_dim), (schedule, gamma), lr, rng)
     }
 
     fn target_entropy(&self) -> f32 {
@@ -263,7 +265,7 @@ impl OffPolicyLearner for Sac {
         let n = batch.rewards.len();
         let dev = self.device.clone();
         let plain = dev.clone().without_autodiff();
-        let gamma = self.config.gamma;
+        let gamma = self.config.off_policy.bootstrap_discount(self.config.gamma);
 
         // 1. Current policy on s (kept in the graph for the actor loss).
         let obs = matrix(&batch.obs, o, &dev);

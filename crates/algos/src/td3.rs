@@ -3,7 +3,8 @@
 //! Per gradient step, on a minibatch `(s, a, r, s', d)`:
 //! 1. target action `a' = clip(pi'(s') + clip(eps, -c, c), -1, 1)`, `eps ~ N(0, sigma^2)`
 //!    drawn per element;
-//! 2. critics: `y = r + gamma (1 - d) min(Q1', Q2')(s', a')`,
+//! 2. critics: `y = r + gamma (1 - d) min(Q1', Q2')(s', a')` (`gamma^n` with `n_step`
+//!    returns),
 //!    `L = MSE(Q1(s, a), y) + MSE(Q2(s, a), y)`;
 //! 3. every `policy_delay` steps: actor `L = -mean(Q1(s, pi(s)))`, then polyak updates of
 //!    both target networks (targets move only on these delayed steps).
@@ -148,7 +149,8 @@ impl Td3 {
             config,
         };
         let (schedule, lr) = (learner.config.off_policy.clone(), learner.config.net.lr);
-        OffPolicy::new(learner, (obs, action_dim), schedule, lr, rng)
+        let gamma = learner.config.gamma;
+        OffPolicy::new(learner, (obs, action_dim), (schedule, gamma), lr, rng)
     }
 
     /// The actor.
@@ -201,7 +203,8 @@ impl OffPolicyLearner for Td3 {
         let min_q_next = self.critic_target.valid().min(next_obs, next_actions);
         let rewards = vector(&batch.rewards, &plain);
         let dones = vector(&batch.dones, &plain);
-        let target = bellman_target(rewards, dones, min_q_next, c.gamma).autodiff();
+        let discount = c.off_policy.bootstrap_discount(c.gamma);
+        let target = bellman_target(rewards, dones, min_q_next, discount).autodiff();
         let obs = matrix(&batch.obs, o, &dev);
         let (q1, q2) = self
             .critic
