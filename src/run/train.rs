@@ -319,8 +319,9 @@ pub fn train(
                         &played.iter().map(|e| e.summary).collect::<Vec<_>>(),
                     );
                     log.evaluation(steps, &m)?;
-                    if best_key(p.best_by, &m) > best {
-                        best = best_key(p.best_by, &m);
+                    let rank = best_key(p.best_by, &m);
+                    if rank > best {
+                        best = rank;
                         save(agent.as_ref(), &run_dir.join(Checkpoint::Best.name()))?;
                     }
                     let event = Event::Evaluation {

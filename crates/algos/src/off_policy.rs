@@ -137,13 +137,25 @@ impl<L: OffPolicyLearner> Agent for OffPolicy<L> {
         let (o, a, n) = (self.obs_dim(), self.action_dim(), self.schedule.n_step);
         self.windows.resize(step.len(), VecDeque::new());
         for i in 0..step.len() {
+            let reward = step.rewards[i] * self.schedule.reward_scale;
+            let (terminated, truncated) = (step.terminated[i], step.truncated[i]);
+            if n == 1 {
+                // One-step returns need no window (and no copy of the row).
+                let (obs, action) = (
+                    &step.obs[i * o..(i + 1) * o],
+                    &step.actions[i * a..(i + 1) * a],
+                );
+                let reached = step.reached(i, o);
+                self.buffer
+                    .push(obs, action, reward, reached, terminated, truncated);
+                continue;
+            }
             self.windows[i].push_back(Pending {
                 obs: step.obs[i * o..(i + 1) * o].to_vec(),
                 action: step.actions[i * a..(i + 1) * a].to_vec(),
-                reward: step.rewards[i] * self.schedule.reward_scale,
+                reward,
             });
             let reached = step.reached(i, o);
-            let (terminated, truncated) = (step.terminated[i], step.truncated[i]);
             if terminated {
                 // Every window ends here, none bootstraps.
                 while !self.windows[i].is_empty() {
