@@ -41,10 +41,49 @@ def wilson(k: int, n: int) -> list[float]:
     return [c - h, c + h]
 
 
+# Student's t, 97.5 % quantile, by degrees of freedom (seeds - 1).
+T975 = {1: 12.706, 2: 4.303, 3: 3.182, 4: 2.776, 5: 2.571, 6: 2.447, 7: 2.365, 8: 2.306, 9: 2.262}
+
+
 def mean_ci(x) -> dict:
+    """Mean over seeds with Student's t 95 % interval (seeds are few)."""
     x = np.asarray(x, dtype=float)
-    h = Z95 * x.std(ddof=1) / math.sqrt(len(x)) if len(x) > 1 else 0.0
+    n = len(x)
+    h = T975.get(n - 1, Z95) * x.std(ddof=1) / math.sqrt(n) if n > 1 else 0.0
     return {"mean": float(x.mean()), "ci95": [float(x.mean() - h), float(x.mean() + h)]}
+
+
+def curves(out: Path, seeds: list[int], names: dict) -> str | None:
+    """curves.png: evaluation score rate and mean return against env steps, each seed thin,
+    the mean over seeds bold; None where matplotlib is not installed."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return None
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
+    for (kind, name), colour in zip(names.items(), ("tab:blue", "tab:orange")):
+        runs = []
+        for s in seeds:
+            rows = np.genfromtxt(out / f"{kind}-sac-seed{s}" / "evaluations.csv", delimiter=",", names=True)
+            runs.append(rows)
+        steps = runs[0]["env_step"]
+        for ax, key, scale in ((axes[0], "score_rate", 100.0), (axes[1], "mean_return", 1.0)):
+            for r in runs:
+                ax.plot(r["env_step"], scale * r[key], color=colour, alpha=0.3, lw=0.8)
+            mean = np.mean([scale * r[key] for r in runs], axis=0)
+            ax.plot(steps, mean, color=colour, lw=2, label=f"{name} (mean of {len(runs)})")
+    axes[0].set_ylabel("evaluation score rate (%), 10 episodes")
+    axes[1].set_ylabel("evaluation mean episode reward")
+    for ax in axes:
+        ax.set_xlabel("env steps")
+        ax.grid(alpha=0.3)
+    axes[0].legend(loc="upper left")
+    fig.tight_layout()
+    fig.savefig(out / "curves.png", dpi=100)
+    return "curves.png"
 
 
 def ratio_ci(num, den) -> dict:
@@ -166,7 +205,8 @@ def job(kind: str, seed: int, epochs: int, out: Path, train: Path) -> str:
 
 def report(out: Path, seeds: list[int]) -> None:
     rows, summary = [], {}
-    for kind, name in (("ours", "foosball-rl SAC (Burn)"), ("sb3", "Stable-Baselines3 SAC (PyTorch)")):
+    names = {"ours": "foosball-rl SAC (Burn)", "sb3": "Stable-Baselines3 SAC (PyTorch)"}
+    for kind, name in names.items():
         rates, walls = [], []
         for s in seeds:
             d = out / f"{kind}-sac-seed{s}"
@@ -196,7 +236,13 @@ def report(out: Path, seeds: list[int]) -> None:
         "| --- | --- | --- | --- | --- | --- | --- |",
         *rows,
         "",
+        "Means over seeds carry Student's t 95 % intervals; per seed, the Wilson interval over",
+        "its 1,000 test episodes.",
+        "",
     ]
+    chart = curves(out, seeds, names)
+    if chart:
+        text += ["Evaluation curves (every 3,000 env steps, 10 deterministic episodes):", "", f"![curves]({chart})", ""]
     (out / "report.md").write_text("\n".join(text))
     (out / "report.json").write_text(json.dumps(summary, indent=2) + "\n")
     print("\n".join(text))
