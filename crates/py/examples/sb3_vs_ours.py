@@ -14,7 +14,7 @@ on 1,000 deterministic episodes of their last networks (`derive_seed(S, TEST_ENV
 the seeds this project's test uses, so both play the very same starts. `--jobs 2`
 runs two trainings at once. Writes `<out>/{ours,sb3}-sac-seed<S>/` (ours: a run
 directory; SB3: evaluations.csv, test/metrics.json, wall.json) and `<out>/report.md`,
-`<out>/report.json`.
+`<out>/report.json` and `<out>/curves.png` (with matplotlib).
 """
 
 from __future__ import annotations
