@@ -92,7 +92,6 @@ fn report_tables_and_charts_several_runs() {
     assert_eq!(o.status.code(), Some(2));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("unfinished/test/metrics.json"), "{err}");
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
@@ -133,6 +132,31 @@ fn report_over_seeds_averages_each_metric_and_lists_every_seed() {
         "{}",
         rows[2]
     );
+
+    // An ablation: a run that departs from the others in one key is its own group, named
+    // by that key, and the two seeds stay pooled.
+    let text = tiny_config_text("ppo", 1, 150).replace("n_epochs = 2", "n_epochs = 3");
+    let config = RunConfig::from_toml(&text, Path::new("tiny.toml")).unwrap();
+    let variant = dir.join("ablation").join("ppo-seed3");
+    std::fs::create_dir_all(&variant).unwrap();
+    train(&config, &variant, Start::Fresh, |_| {}).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_report"))
+        .args([dir.join("sweep"), dir.join("ablation")])
+        .args(["--out", dir.join("out2").to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let md = std::fs::read_to_string(dir.join("out2/report.md")).unwrap();
+    let header = md
+        .lines()
+        .find(|l| l.starts_with("| mean over seeds"))
+        .unwrap();
+    assert!(
+        header
+            .contains("| ppo reference* 16 (2 runs) | ppo reference* 16 ppo.n_epochs=3 (1 run) |"),
+        "{header}"
+    );
+
     let empty = dir.join("empty");
     std::fs::create_dir_all(&empty).unwrap();
     let o = Command::new(env!("CARGO_BIN_EXE_report"))
@@ -141,5 +165,4 @@ fn report_over_seeds_averages_each_metric_and_lists_every_seed() {
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("no finished run or baseline here"));
-    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -159,12 +159,17 @@ fn another_sweep_in_the_same_directory_and_bad_seeds_are_refused() {
                 "ppo",
                 "--seeds",
                 "0",
-                "--baselines",
-                "zero",
+                "--no-baselines",
             ],
         )
     };
     run(one("1"));
+    let entries: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+        .filter(|n| !n.ends_with(".toml") && n != "report")
+        .collect();
+    assert_eq!(entries, ["ppo-seed0"], "--no-baselines tests no baseline");
     let o = one("2").output().unwrap();
     assert_eq!(o.status.code(), Some(2));
     let err = String::from_utf8_lossy(&o.stderr);
@@ -177,5 +182,9 @@ fn another_sweep_in_the_same_directory_and_bad_seeds_are_refused() {
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--seeds `3..1`"));
-    std::fs::remove_dir_all(&dir).unwrap();
+    let o = sweep_command(&configs, &out, &["--baselines", "zero", "--no-baselines"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--no-baselines"));
 }

@@ -64,6 +64,9 @@ struct Args {
         default_value = "shooter,dribbler,zero,random"
     )]
     baselines: Vec<ScriptedPolicy>,
+    /// Test no scripted baseline (an ablation whose baselines are reported elsewhere).
+    #[arg(long, conflicts_with = "baselines")]
+    no_baselines: bool,
     /// Runs trained at once (default: cores / threads per run).
     #[arg(long)]
     jobs: Option<usize>,
@@ -151,7 +154,11 @@ fn spec(args: &Args) -> Result<SweepSpec, String> {
     }
     Ok(SweepSpec {
         seeds,
-        baselines: args.baselines.clone(),
+        baselines: if args.no_baselines {
+            Vec::new()
+        } else {
+            args.baselines.clone()
+        },
         runs,
     })
 }

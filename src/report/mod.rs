@@ -18,6 +18,7 @@ use crate::run::log::EvaluationRow;
 use foosball_env::FoosballConfig;
 use serde::Serialize;
 use stats::{iqm, mean};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// A run directory that cannot be reported on, or a report file that could not be
@@ -67,6 +68,44 @@ pub struct RunResults {
     pub metrics: TestMetrics,
     /// `evaluations.csv` (empty for a baseline).
     pub evaluations: Vec<EvalPoint>,
+    /// The run's configuration by dotted key (`sac.off_policy.n_step` -> `3`), without the
+    /// keys that do not change its numbers (seed, thread count); empty for a baseline.
+    pub settings: BTreeMap<String, String>,
+}
+
+/// Keys of a run's configuration that differ between seeds of one experiment or do not
+/// change its numbers.
+const NOT_SETTINGS: [&str; 2] = ["protocol.seed", "protocol.threads"];
+
+/// `config` flattened to dotted keys, minus [`NOT_SETTINGS`].
+fn settings(config: &RunConfig) -> BTreeMap<String, String> {
+    fn flatten(prefix: &str, value: &serde_json::Value, out: &mut BTreeMap<String, String>) {
+        match value {
+            serde_json::Value::Object(map) => {
+                for (k, v) in map {
+                    let key = if prefix.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{prefix}.{k}")
+                    };
+                    flatten(&key, v, out);
+                }
+            }
+            serde_json::Value::String(v) => {
+                out.insert(prefix.to_string(), v.clone());
+            }
+            v => {
+                out.insert(prefix.to_string(), v.to_string());
+            }
+        }
+    }
+    let mut out = BTreeMap::new();
+    let value = serde_json::to_value(config).expect("a run config always serialises");
+    flatten("", &value, &mut out);
+    for key in NOT_SETTINGS {
+        out.remove(key);
+    }
+    out
 }
 
 fn read_metrics(path: &Path) -> Result<TestMetrics, ReportError> {
@@ -115,6 +154,7 @@ impl RunResults {
             goal_line_y: config.env.reward.goal_line_y,
             metrics: read_metrics(&dir.join("test/metrics.json"))?,
             evaluations: read_evaluations(&dir.join("evaluations.csv"))?,
+            settings: settings(&config),
         })
     }
 
@@ -130,6 +170,7 @@ impl RunResults {
             goal_line_y: b.env.reward.goal_line_y,
             metrics: read_metrics(&dir.join("metrics.json"))?,
             evaluations: Vec::new(),
+            settings: BTreeMap::new(),
         })
     }
 
@@ -193,17 +234,51 @@ pub struct Group {
 }
 
 /// Groups runs by player, preset and network, in order of first appearance (baselines
-/// after the learners).
+/// after the learners). Runs of one player, preset and network whose configurations
+/// differ in other keys (an ablation) are kept apart: a group is labelled with the keys
+/// where it departs from the value most of those runs share (the first seen on a tie),
+/// e.g. `sac reference 64x64` beside `sac reference 64x64 sac.off_policy.n_step=3`.
 pub fn group(runs: Vec<RunResults>) -> Vec<Group> {
-    let mut groups: Vec<Group> = Vec::new();
     let (learners, baselines): (Vec<_>, Vec<_>) = runs.into_iter().partition(|r| !r.is_baseline());
-    for r in learners.into_iter().chain(baselines) {
+    let runs: Vec<RunResults> = learners.into_iter().chain(baselines).collect();
+    let base = |r: &RunResults| {
         let widths: Vec<String> = r.hidden.iter().map(ToString::to_string).collect();
-        let label = if r.is_baseline() {
+        if r.is_baseline() {
             format!("{} {}", r.player, r.preset)
         } else {
             format!("{} {} {}", r.player, r.preset, widths.join("x"))
-        };
+        }
+    };
+    let labels: Vec<String> = runs
+        .iter()
+        .map(|r| {
+            let peers: Vec<&RunResults> = runs.iter().filter(|o| base(o) == base(r)).collect();
+            let common = |key: &String| {
+                let values = peers.iter().filter_map(|o| o.settings.get(key));
+                let mut counts: Vec<(&String, usize)> = Vec::new();
+                for v in values {
+                    match counts.iter_mut().find(|(c, _)| *c == v) {
+                        Some((_, n)) => *n += 1,
+                        None => counts.push((v, 1)),
+                    }
+                }
+                let most = counts.iter().map(|(_, n)| *n).max().unwrap_or(0);
+                counts.into_iter().find(|(_, n)| *n == most).map(|(v, _)| v)
+            };
+            let departs: Vec<String> = r
+                .settings
+                .iter()
+                .filter(|(k, v)| common(k) != Some(*v))
+                .map(|(k, v)| format!("{k}={v}"))
+                .collect();
+            std::iter::once(base(r))
+                .chain(departs)
+                .collect::<Vec<_>>()
+                .join(" ")
+        })
+        .collect();
+    let mut groups: Vec<Group> = Vec::new();
+    for (r, label) in runs.into_iter().zip(labels) {
         match groups.iter_mut().find(|g| g.label == label) {
             Some(g) => g.runs.push(r),
             None => groups.push(Group {
@@ -343,7 +418,7 @@ fn episode_gifs(groups: &[Group], out: &Path) -> Result<String, ReportError> {
             caption: true,
             goal_line_y: run.goal_line_y,
         };
-        let stem = g.label.replace(['*', ' '], "_");
+        let stem = g.label.replace(['*', ' ', '/', '"'], "_");
         md += &format!("### {} ({})\n\n", g.label, run.name);
         for (what, k) in [("best", best), ("worst", worst)] {
             let file = format!("{stem}-{what}.gif");

@@ -39,12 +39,43 @@ pub fn tiny_config_text(algo: &str, epochs: u32, steps_per_epoch: u64) -> String
     )
 }
 
-/// An empty scratch directory for test `name`.
-pub fn scratch(name: &str) -> PathBuf {
+/// An empty scratch directory for test `name`, removed with everything in it when the
+/// guard drops (a failing test leaves it: a panic skips the removal, so it can be read).
+pub fn scratch(name: &str) -> Scratch {
     let dir = std::env::temp_dir().join(format!("foosball-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    dir
+    Scratch(dir)
+}
+
+/// A scratch directory (see [`scratch`]); derefs to its path.
+pub struct Scratch(PathBuf);
+
+impl std::ops::Deref for Scratch {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl AsRef<Path> for Scratch {
+    fn as_ref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl AsRef<std::ffi::OsStr> for Scratch {
+    fn as_ref(&self) -> &std::ffi::OsStr {
+        self.0.as_os_str()
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
 }
 
 /// Neutral commands: every rod held at its centre, feet down.
