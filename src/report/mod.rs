@@ -18,7 +18,7 @@ use crate::run::log::EvaluationRow;
 use foosball_env::FoosballConfig;
 use serde::Serialize;
 use stats::{iqm, mean};
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 /// A run directory that cannot be reported on, or a report file that could not be
@@ -233,6 +233,23 @@ pub struct Group {
     pub runs: Vec<RunResults>,
 }
 
+/// The value most of `values` take, an absent key counting as a value of its own (the
+/// first seen on a tie); `None` for no values or when absence is the most common.
+fn common_value<'a>(values: impl Iterator<Item = Option<&'a String>>) -> Option<&'a String> {
+    let mut counts: Vec<(Option<&String>, usize)> = Vec::new();
+    for v in values {
+        match counts.iter_mut().find(|(c, _)| *c == v) {
+            Some((_, n)) => *n += 1,
+            None => counts.push((v, 1)),
+        }
+    }
+    let most = counts.iter().map(|(_, n)| *n).max().unwrap_or(0);
+    counts
+        .into_iter()
+        .find(|(_, n)| *n == most)
+        .and_then(|(v, _)| v)
+}
+
 /// Groups runs by player, preset and network, in order of first appearance (baselines
 /// after the learners). Runs of one player, preset and network whose configurations
 /// differ in other keys (an ablation) are kept apart: a group is labelled with the keys
@@ -253,24 +270,12 @@ pub fn group(runs: Vec<RunResults>) -> Vec<Group> {
         .iter()
         .map(|r| {
             let peers: Vec<&RunResults> = runs.iter().filter(|o| base(o) == base(r)).collect();
-            let common = |key: &String| {
-                let values = peers.iter().filter_map(|o| o.settings.get(key));
-                let mut counts: Vec<(&String, usize)> = Vec::new();
-                for v in values {
-                    match counts.iter_mut().find(|(c, _)| *c == v) {
-                        Some((_, n)) => *n += 1,
-                        None => counts.push((v, 1)),
-                    }
-                }
-                let most = counts.iter().map(|(_, n)| *n).max().unwrap_or(0);
-                counts.into_iter().find(|(_, n)| *n == most).map(|(v, _)| v)
-            };
-            let departs: Vec<String> = r
-                .settings
-                .iter()
-                .filter(|(k, v)| common(k) != Some(*v))
-                .map(|(k, v)| format!("{k}={v}"))
-                .collect();
+            let keys: BTreeSet<&String> = peers.iter().flat_map(|o| o.settings.keys()).collect();
+            let departs = keys.into_iter().filter_map(|key| {
+                let own = r.settings.get(key);
+                (common_value(peers.iter().map(|o| o.settings.get(key))) != own)
+                    .then(|| format!("{key}={}", own.map_or("none", String::as_str)))
+            });
             std::iter::once(base(r))
                 .chain(departs)
                 .collect::<Vec<_>>()
@@ -478,4 +483,24 @@ pub fn write_report(paths: &[PathBuf], out: &Path) -> Result<String, ReportError
         .map_err(|e| error(&e.path, e.source))?;
     write_atomic(&out.join("report.md"), md.as_bytes()).map_err(|e| error(&e.path, e.source))?;
     Ok(md)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::common_value;
+
+    #[test]
+    fn an_absent_key_counts_as_a_value_of_its_own() {
+        let (a, b) = ("0.005".to_string(), "0.01".to_string());
+        assert_eq!(common_value([None, None, Some(&a)].into_iter()), None);
+        assert_eq!(
+            common_value([Some(&a), None, Some(&a)].into_iter()),
+            Some(&a)
+        );
+        assert_eq!(
+            common_value([Some(&b), Some(&a)].into_iter()),
+            Some(&b),
+            "the first seen on a tie"
+        );
+    }
 }
