@@ -20,7 +20,7 @@
 //!    (side-by-side tables and charts of several runs) and [`league`] (round-robins of
 //!    two-sided matches, ratings, the leaderboard).
 //!
-//! `tests/architecture.rs` checks that no import runs back up.
+//! `tests/suite/architecture.rs` checks that no import runs back up.
 
 pub mod agents;
 pub mod cli;

@@ -6,7 +6,7 @@
 use std::path::Path;
 use std::process::Command;
 
-mod common;
+use crate::common;
 
 fn replays(run: &str) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));

@@ -9,13 +9,13 @@ use foosball_rl::env::{
 };
 use rand::{Rng, SeedableRng};
 
-mod common;
+use crate::common;
 
 use common::{NEUTRAL, env_with, placed, play_out};
 
 /// The first paper preset: 10 ms agent steps, world frame, linear actions, a rolling ball
 /// free in 3-D, starting near (-0.5, -0.1). (The code's table has its own tests:
-/// `presets.rs` and `tests/reference_parity.rs`.)
+/// `presets.rs` and `tests/suite/reference_parity.rs`.)
 fn ten_ms() -> FoosballConfig {
     FoosballConfig::preset(Preset::PaperV1)
 }

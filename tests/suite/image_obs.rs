@@ -2,7 +2,7 @@
 //! picture matching the table's state, determinism in VecEnv whatever the thread count,
 //! bad settings refused by key, and a tiny run trained on pixels through a CNN end to end.
 
-mod common;
+use crate::common;
 
 use common::{scratch, tiny_config_text};
 use foosball_rl::config::RunConfig;

@@ -2,7 +2,7 @@
 //! interrupted or extended league plays only what is missing, the leaderboard files are
 //! written, bad settings are refused by name.
 
-mod common;
+use crate::common;
 
 use common::scratch;
 use foosball_rl::env::FoosballConfig;

@@ -3,7 +3,7 @@
 //! Thresholds: SAC and TD3 reach a mean deterministic return >= -250 over 10 held-out
 //! episodes within 20,000 env steps (RL Zoo reports about -150); PPO improves on its
 //! untrained return by >= 500 within 200,000 steps and ends >= -400.
-//! `cargo test --release --test learning -- --nocapture` prints the figures.
+//! `cargo test --release --test suite learning:: -- --nocapture` prints the figures.
 
 use foosball_rl::algos::{
     Agent, Collector, LrSchedule, Ppo, PpoConfig, Sac, SacConfig, Td3, Td3Config, play_episode,

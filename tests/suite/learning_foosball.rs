@@ -14,7 +14,7 @@
 //! shows (seed 0: 0 %, every episode stagnant after 10 steps: the mean action never kicks
 //! within the 20 ms the stagnation rule allows); see the README.
 
-mod common;
+use crate::common;
 
 use foosball_rl::config::{Algo, Overrides, RunConfig};
 use foosball_rl::env::{FoosballConfig, Preset};

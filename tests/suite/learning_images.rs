@@ -6,7 +6,7 @@
 //! and ends >= -0.25 (0 is a perfect block; the untrained policy, whose action barely
 //! depends on the picture, earns about -0.5, the mean |x| / 10 of a ball at x ~ U(-10,
 //! 10) cm). Measured: seed 1 -0.474 -> -0.092, seed 2 -0.503 -> -0.155, seed 3 -0.548 ->
-//! -0.135, about 18 s each. `cargo test --release --test learning_images -- --nocapture`
+//! -0.135, about 18 s each. `cargo test --release --test suite learning_images:: -- --nocapture`
 //! prints the figures.
 
 use foosball_rl::algos::{Agent, Collector, LrSchedule, NetConfig, Ppo, PpoConfig, play_episode};

@@ -1,6 +1,6 @@
 //! Pendulum-v1 reproduces Gymnasium 1.4.0's trajectories (`shared/reference/pendulum`).
 
-mod common;
+use crate::common;
 
 use foosball_rl::env::{Env, Pendulum};
 use serde::Deserialize;

@@ -10,7 +10,7 @@ use foosball_rl::play::planned::{PlanCost, play_planned};
 use foosball_rl::play::scripted::{Baseline, ScriptedPolicy};
 use std::process::Command;
 
-mod common;
+use crate::common;
 
 /// A small budget: 32 candidates x 4 iterations of 24 pieces of 5 steps.
 fn small() -> PlannerConfig {

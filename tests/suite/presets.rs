@@ -6,7 +6,7 @@
 use foosball_rl::env::{EndReason, Env, FoosballConfig, FoosballEnv, Preset};
 use foosball_rl::play::scripted::ScriptedPolicy;
 
-mod common;
+use crate::common;
 
 use common::{placed, play_out};
 

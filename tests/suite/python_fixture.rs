@@ -4,7 +4,7 @@
 //!
 //! This test checks that the Rust env still writes exactly the committed
 //! `crates/py/tests/data/trajectories.json`; after an intended change of the game,
-//! `FOOSBALL_UPDATE_FIXTURES=1 cargo test --release --test python_fixture` rewrites it.
+//! `FOOSBALL_UPDATE_FIXTURES=1 cargo test --release --test suite python_fixture::` rewrites it.
 
 use std::path::Path;
 

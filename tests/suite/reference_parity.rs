@@ -28,7 +28,7 @@ use rand::{Rng, SeedableRng};
 use serde::Deserialize;
 use std::collections::BTreeMap;
 
-mod common;
+use crate::common;
 
 /// A row: physics step, ball joint x, joint y, velocity x, velocity y.
 type Row = [f64; 5];

@@ -3,7 +3,7 @@
 //! another format or version, a truncated one and an episode index out of range are
 //! refused by name.
 
-mod common;
+use crate::common;
 
 use common::scratch;
 use foosball_rl::env::layout::{ACTION_DIM, OBS_DIM};

@@ -1,7 +1,7 @@
 //! `report` on finished runs: the side-by-side table carries each run's test metrics, the
 //! charts are PNG images, and a run without a test is refused by name.
 
-mod common;
+use crate::common;
 
 use common::{scratch, tiny_config_text};
 use foosball_rl::config::RunConfig;

@@ -2,7 +2,7 @@
 //! checkpoint ends exactly as the uninterrupted run does (metrics, logs, networks and
 //! the whole training state).
 
-mod common;
+use crate::common;
 
 use common::{scratch, tiny_config_text};
 use foosball_rl::config::RunConfig;

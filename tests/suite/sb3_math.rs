@@ -2,7 +2,7 @@
 //! (`../shared/reference/sb3/sb3_math.json`): GAE, the squashed and plain diagonal
 //! Gaussian log-densities, and PPO's clipped objective.
 
-mod common;
+use crate::common;
 
 use foosball_rl::algos::ppo::{clipped_surrogate, normalize_advantages};
 use foosball_rl::algos::rollout_buffer::gae;

@@ -4,7 +4,7 @@
 //! saved networks (`protocol.init_from`, the way to fine-tune a trained agent by
 //! self-play).
 
-mod common;
+use crate::common;
 
 use common::{scratch, tiny_config_text};
 use foosball_rl::config::RunConfig;

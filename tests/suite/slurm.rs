@@ -4,7 +4,7 @@
 //! locally; `--status` and a second submission see what is left. Without a cluster the
 //! test says so and passes, except under `CI=true`, where the cluster must be up.
 
-mod common;
+use crate::common;
 
 use common::{TINY_SWEEP, scratch, sweep_results, tiny_config_text};
 use std::path::{Path, PathBuf};

@@ -2,7 +2,7 @@
 //! report; a sweep killed and run again ends with the same files as an uninterrupted one;
 //! a directory of another sweep and a bad seed list are refused by name.
 
-mod common;
+use crate::common;
 
 use common::{TINY_SWEEP, scratch, sweep_results, tiny_config_text};
 use std::path::{Path, PathBuf};

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-mod common;
+use crate::common;
 
 fn tiny_config(dir: &Path, algo: &str) -> PathBuf {
     let path = dir.join(format!("{algo}.toml"));

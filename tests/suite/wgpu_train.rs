@@ -3,11 +3,11 @@
 //! lavapipe, Mesa's software Vulkan driver; `crates/algos/tests/backend_parity.rs` checks
 //! that its updates match the CPU's.
 //!
-//! `cargo test --release --features wgpu --test wgpu_train`
+//! `cargo test --release --features wgpu --test suite wgpu_train::`
 
 use std::process::Command;
 
-mod common;
+use crate::common;
 
 #[test]
 fn each_algorithm_trains_on_wgpu() {

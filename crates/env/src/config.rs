@@ -601,7 +601,7 @@ impl Default for BallConfig {
 
 impl BallConfig {
     /// The reference model's ball, with the contact coefficients calibrated against it
-    /// (`tests/reference_parity.rs`).
+    /// (`tests/suite/reference_parity.rs`).
     pub fn reference() -> Self {
         Self {
             model: BallModel::Reference,

@@ -32,7 +32,7 @@ pub const GOAL_LINE_Y: f32 = 64.0;
 /// each of its slide joints, over its 0.1 kg.
 pub const REFERENCE_BALL_DECELERATION: f32 = 200.0;
 /// Friction coefficient of the `reference` ball's contacts with men and walls (calibrated
-/// against the reference model, see `tests/reference_parity.rs`).
+/// against the reference model, see `tests/suite/reference_parity.rs`).
 pub const REFERENCE_BALL_FRICTION: f32 = 0.01;
 /// Restitution of the `reference` ball's contacts (calibrated likewise: MuJoCo's soft
 /// contacts with solref 0.004 and damping ratio 1 are nearly dead).

@@ -1,5 +1,5 @@
 """Python plays the Rust env bit for bit: the trajectories of
-`data/trajectories.json`, which the Rust test `tests/python_fixture.rs` checks the Rust
+`data/trajectories.json`, which the Rust test `tests/suite/python_fixture.rs` checks the Rust
 env still writes, replayed through FoosballEnv and FoosballVectorEnv."""
 
 import json

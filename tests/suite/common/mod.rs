@@ -1,5 +1,4 @@
-//! Helpers shared by the integration tests (each test crate uses some of them).
-#![allow(dead_code)]
+//! Helpers shared by the modules of the integration tests.
 
 use foosball_rl::env::geometry::BALL_RADIUS;
 use foosball_rl::env::layout::ACTION_DIM;
