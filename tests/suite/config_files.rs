@@ -1,5 +1,5 @@
-//! `configs/*.toml` hold the paper's protocol, and bad files are refused with the file,
-//! the line and the key at fault.
+//! `configs/**/*.toml` load, the algorithms' files hold the paper's protocol, and bad
+//! files are refused with the file, the line and the key at fault.
 
 use foosball_rl::config::{Algo, AlgoConfig, ConfigFileError, RunConfig};
 use std::path::{Path, PathBuf};
@@ -44,6 +44,34 @@ fn the_shipped_configs_hold_the_papers_protocol() {
         // What a run saves reads back the same.
         let again = RunConfig::from_toml(&c.to_toml(), Path::new("saved.toml")).unwrap();
         assert_eq!(again, c);
+    }
+}
+
+/// Every file under `configs/` (the ablation's included) loads as a run configuration:
+/// a renamed key or a bad value in a shipped file fails here, not hours into a study.
+#[test]
+fn every_shipped_config_loads() {
+    fn tomls(dir: &Path, out: &mut Vec<PathBuf>) {
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                tomls(&path, out);
+            } else if path.extension().is_some_and(|e| e == "toml") {
+                out.push(path);
+            }
+        }
+    }
+    let mut files = Vec::new();
+    tomls(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("configs"),
+        &mut files,
+    );
+    assert!(files.len() >= 12, "{files:?}");
+    for file in files {
+        // The error names the file, the line and the key.
+        if let Err(e) = RunConfig::load(&file) {
+            panic!("{e}");
+        }
     }
 }
 
