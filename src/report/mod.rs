@@ -77,6 +77,16 @@ pub struct RunResults {
 /// change its numbers.
 const NOT_SETTINGS: [&str; 2] = ["protocol.seed", "protocol.threads"];
 
+/// A config number as its file would write it: a float that an `f32` holds exactly (the
+/// config's `f32` keys reach JSON widened to `f64`) in the `f32`'s shortest form, `0.005`
+/// rather than `0.004999999888241291`.
+fn number_text(n: &serde_json::Number) -> String {
+    match n.as_f64() {
+        Some(x) if n.is_f64() && f64::from(x as f32) == x => (x as f32).to_string(),
+        _ => n.to_string(),
+    }
+}
+
 /// `config` flattened to dotted keys, minus [`NOT_SETTINGS`].
 fn settings(config: &RunConfig) -> BTreeMap<String, String> {
     fn flatten(prefix: &str, value: &serde_json::Value, out: &mut BTreeMap<String, String>) {
@@ -93,6 +103,9 @@ fn settings(config: &RunConfig) -> BTreeMap<String, String> {
             }
             serde_json::Value::String(v) => {
                 out.insert(prefix.to_string(), v.clone());
+            }
+            serde_json::Value::Number(n) => {
+                out.insert(prefix.to_string(), number_text(n));
             }
             v => {
                 out.insert(prefix.to_string(), v.to_string());
@@ -487,7 +500,16 @@ pub fn write_report(paths: &[PathBuf], out: &Path) -> Result<String, ReportError
 
 #[cfg(test)]
 mod tests {
-    use super::common_value;
+    use super::{common_value, number_text};
+
+    #[test]
+    fn config_numbers_read_as_their_file_writes_them() {
+        let text = |x: f64| number_text(&serde_json::Number::from_f64(x).unwrap());
+        assert_eq!(text(f64::from(0.005f32)), "0.005");
+        assert_eq!(text(f64::from(0.99f32)), "0.99");
+        assert_eq!(text(0.99), "0.99", "an f64 key keeps its own digits");
+        assert_eq!(number_text(&serde_json::Number::from(3)), "3");
+    }
 
     #[test]
     fn an_absent_key_counts_as_a_value_of_its_own() {
