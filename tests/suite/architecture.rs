@@ -26,22 +26,7 @@ fn module_of(src: &Path, file: &Path) -> String {
 
 /// Every `.rs` file of a crate's library (binaries are leaves: nothing imports them).
 fn sources(src: &Path) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    let mut stack = vec![src.to_path_buf()];
-    while let Some(dir) = stack.pop() {
-        for entry in std::fs::read_dir(&dir).unwrap() {
-            let path = entry.unwrap().path();
-            if path.is_dir() {
-                if path.file_name().unwrap() != "bin" {
-                    stack.push(path);
-                }
-            } else if path.extension().is_some_and(|e| e == "rs") {
-                out.push(path);
-            }
-        }
-    }
-    out.sort();
-    out
+    crate::common::files_under(src, "rs", &["bin"])
 }
 
 /// The code of `text` without comments (whole-line `//` comments and line tails).

@@ -51,20 +51,10 @@ fn the_shipped_configs_hold_the_papers_protocol() {
 /// a renamed key or a bad value in a shipped file fails here, not hours into a study.
 #[test]
 fn every_shipped_config_loads() {
-    fn tomls(dir: &Path, out: &mut Vec<PathBuf>) {
-        for entry in std::fs::read_dir(dir).unwrap() {
-            let path = entry.unwrap().path();
-            if path.is_dir() {
-                tomls(&path, out);
-            } else if path.extension().is_some_and(|e| e == "toml") {
-                out.push(path);
-            }
-        }
-    }
-    let mut files = Vec::new();
-    tomls(
+    let files = crate::common::files_under(
         &Path::new(env!("CARGO_MANIFEST_DIR")).join("configs"),
-        &mut files,
+        "toml",
+        &[],
     );
     assert!(files.len() >= 12, "{files:?}");
     for file in files {

@@ -145,3 +145,27 @@ pub fn sweep_results(out: &Path) -> Vec<(String, Vec<u8>)> {
         })
         .collect()
 }
+
+/// Every file under `dir` (recursively, sorted) whose name ends in `.{ext}`, skipping the
+/// folders named in `skip`.
+pub fn files_under(dir: &Path, ext: &str, skip: &[&str]) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(dir) = stack.pop() {
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                if !skip
+                    .iter()
+                    .any(|s| path.file_name().is_some_and(|n| n == *s))
+                {
+                    stack.push(path);
+                }
+            } else if path.extension().is_some_and(|e| e == ext) {
+                out.push(path);
+            }
+        }
+    }
+    out.sort();
+    out
+}
