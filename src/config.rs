@@ -132,6 +132,12 @@ pub struct Protocol {
     /// fresh (fine-tuning, e.g. self-play from a trained agent). Absent: fresh networks.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub init_from: Option<String>,
+    /// A `trajectories.bin` (what `evaluate` writes, e.g. the planner's episodes) whose
+    /// transitions SAC and TD3 mix into their minibatches at `off_policy.demo_share`;
+    /// its episodes must start from seeds other than this run's evaluation and test
+    /// starts (`evaluate --seed` other than the run's). Absent: none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub demonstrations: Option<String>,
 }
 
 impl Protocol {
@@ -157,6 +163,7 @@ impl Default for Protocol {
             threads: 0,
             backend: None,
             init_from: None,
+            demonstrations: None,
         }
     }
 }
@@ -607,6 +614,26 @@ impl RunConfig {
         }
         self.env.validate().map_err(|e| e.under("env"))?;
         self.algorithm.validate()?;
+        let demo_share = self.algorithm.off_policy().and_then(|o| o.demo_share);
+        match (&p.demonstrations, demo_share) {
+            (Some(_), None) => {
+                return Err(ConfigError::new(
+                    "protocol.demonstrations",
+                    format!(
+                        "set {}.off_policy.demo_share, the share of each minibatch they fill \
+                         (SAC and TD3 only)",
+                        self.algo()
+                    ),
+                ));
+            }
+            (None, Some(_)) => {
+                return Err(ConfigError::new(
+                    format!("{}.off_policy.demo_share", self.algo()),
+                    "draws from demonstrations: set protocol.demonstrations",
+                ));
+            }
+            _ => {}
+        }
         if let Some(sp) = &self.self_play {
             sp.validate()?;
         }

@@ -18,7 +18,7 @@
 use super::config::{Objective, PlannerConfig};
 use foosball_algos::EpisodeLog;
 use foosball_env::layout::ACTION_DIM;
-use foosball_env::{EnvError, EnvRng, FoosballEnv, FoosballInfo, Transition};
+use foosball_env::{EnvError, EnvRng, FoosballConfig, FoosballEnv, FoosballInfo, Transition};
 use rand::{Rng, SeedableRng};
 use rand_distr::StandardNormal;
 
@@ -118,17 +118,22 @@ pub fn follow<L: EpisodeLog<FoosballEnv>>(
 }
 
 /// Searches a plan for the episode of `env`'s config reset from `seed`; the search's own
-/// draws come from `search_seed`, so the same call finds the same plan.
+/// draws come from `search_seed`, so the same call finds the same plan. It starts from
+/// `from` (a mean plan and its spread, e.g. a shared plan to refine) or, by default, from
+/// mean 0 and spread `initial_std`.
 pub fn search(
     env: &mut FoosballEnv,
     seed: u64,
     search_seed: u64,
     config: &PlannerConfig,
+    from: Option<(&Plan, f32)>,
 ) -> Result<Search, EnvError> {
     let c = config;
     let mut rng = EnvRng::seed_from_u64(search_seed);
-    let mut mean = vec![[0.0_f32; ACTION_DIM]; c.segments];
-    let mut std = vec![[c.initial_std; ACTION_DIM]; c.segments];
+    let (mut mean, mut std) = match from {
+        Some((plan, spread)) => (plan.clone(), vec![[spread; ACTION_DIM]; plan.len()]),
+        None => initial(c),
+    };
     let mut rollouts = 0;
     let mut simulated_steps = 0;
     let mut rollout = |plan: &Plan| -> Result<Outcome, EnvError> {
@@ -157,35 +162,14 @@ pub fn search(
         }
         let mut scored: Vec<(Outcome, Plan)> = vec![(best.outcome, best.plan.clone())];
         for _ in 1..c.population {
-            let plan: Plan = mean
-                .iter()
-                .zip(&std)
-                .map(|(m, s)| {
-                    core::array::from_fn(|i| {
-                        let z: f32 = rng.sample(StandardNormal);
-                        (m[i] + s[i] * z).clamp(-1.0, 1.0)
-                    })
-                })
-                .collect();
+            let plan = sample_plan(&mean, &std, &mut rng);
             scored.push((rollout(&plan)?, plan));
         }
         // Highest value first; ties keep the earlier candidate (the best so far first).
         let worth = |o: &Outcome| o.value(c.objective);
         scored.sort_by(|a, b| worth(&b.0).total_cmp(&worth(&a.0)));
-        let elites = &scored[..c.elites];
-        let n = elites.len() as f32;
-        for k in 0..c.segments {
-            for i in 0..ACTION_DIM {
-                let m = elites.iter().map(|(_, p)| p[k][i]).sum::<f32>() / n;
-                let var = elites
-                    .iter()
-                    .map(|(_, p)| (p[k][i] - m).powi(2))
-                    .sum::<f32>()
-                    / n;
-                mean[k][i] = m;
-                std[k][i] = var.sqrt().max(c.min_std);
-            }
-        }
+        let elites: Vec<&Plan> = scored[..c.elites].iter().map(|(_, p)| p).collect();
+        refit(&elites, c.min_std, &mut mean, &mut std);
         let (outcome, plan) = &scored[0];
         best.outcome = *outcome;
         best.plan.clone_from(plan);
@@ -193,4 +177,116 @@ pub fn search(
     best.rollouts = rollouts;
     best.simulated_steps = simulated_steps;
     Ok(best)
+}
+
+/// The first iteration's sampling: mean 0, spread `initial_std`, per segment and value.
+fn initial(c: &PlannerConfig) -> (Plan, Plan) {
+    (
+        vec![[0.0; ACTION_DIM]; c.segments],
+        vec![[c.initial_std; ACTION_DIM]; c.segments],
+    )
+}
+
+/// A candidate `clip(mean + std * N(0, 1), -1, 1)`.
+fn sample_plan(mean: &Plan, std: &Plan, rng: &mut EnvRng) -> Plan {
+    mean.iter()
+        .zip(std)
+        .map(|(m, s)| {
+            core::array::from_fn(|i| {
+                let z: f32 = rng.sample(StandardNormal);
+                (m[i] + s[i] * z).clamp(-1.0, 1.0)
+            })
+        })
+        .collect()
+}
+
+/// Refits `mean` and `std` (at least `min_std`) to the `elites`, per segment and value.
+fn refit(elites: &[&Plan], min_std: f32, mean: &mut Plan, std: &mut Plan) {
+    let n = elites.len() as f32;
+    for k in 0..mean.len() {
+        for i in 0..ACTION_DIM {
+            let m = elites.iter().map(|p| p[k][i]).sum::<f32>() / n;
+            let var = elites.iter().map(|p| (p[k][i] - m).powi(2)).sum::<f32>() / n;
+            mean[k][i] = m;
+            std[k][i] = var.sqrt().max(min_std);
+        }
+    }
+}
+
+/// One plan for many starts, and what it earned on them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SharedSearch {
+    /// The best plan found.
+    pub plan: Plan,
+    /// Share of the search's starts on which it scores.
+    pub score_rate: f64,
+    /// Rollouts played (candidates times starts).
+    pub rollouts: u64,
+    /// Agent steps simulated over all rollouts.
+    pub simulated_steps: u64,
+}
+
+/// Searches one open-loop plan for all of `starts` (reset seeds of `env`): a candidate is
+/// worth the mean of its [`Outcome::value`]s over the starts, so with the `score`
+/// objective the plan that scores from the most starts, then sooner. Candidates are
+/// played in parallel (rayon), each on a table of its own thread; the result does not
+/// depend on the thread count. The search's draws come from `search_seed`;
+/// `stop_when_scored` stops once a candidate scores from every start.
+pub fn search_shared(
+    env: &FoosballConfig,
+    starts: &[u64],
+    search_seed: u64,
+    config: &PlannerConfig,
+) -> Result<SharedSearch, String> {
+    use rayon::prelude::*;
+    let c = config;
+    let mut rng = EnvRng::seed_from_u64(search_seed);
+    let (mut mean, mut std) = initial(c);
+    let evaluate = |plans: &[Plan]| -> Result<Vec<(f64, f64, u64)>, String> {
+        plans
+            .par_iter()
+            .map_init(
+                || FoosballEnv::new(env.clone()),
+                |table, plan| {
+                    let table = table.as_mut().map_err(|e| e.to_string())?;
+                    let (mut value, mut goals, mut steps) = (0.0, 0.0, 0);
+                    for &seed in starts {
+                        let mut outcome = Outcome::default();
+                        let cap = Some(c.max_rollout_steps);
+                        follow(table, seed, plan, c.segment_steps, cap, &mut outcome)
+                            .map_err(|e| e.to_string())?;
+                        value += outcome.value(c.objective);
+                        goals += f64::from(u8::from(outcome.scored));
+                        steps += u64::from(outcome.steps);
+                    }
+                    let n = starts.len() as f64;
+                    Ok((value / n, goals / n, steps))
+                },
+            )
+            .collect()
+    };
+    let mut best = (mean.clone(), evaluate(std::slice::from_ref(&mean))?[0]);
+    let (mut rollouts, mut simulated_steps) = (starts.len() as u64, best.1.2);
+    for _ in 0..c.iterations {
+        if c.stop_when_scored && best.1.1 == 1.0 {
+            break;
+        }
+        let mut plans = vec![best.0.clone()];
+        plans.extend((1..c.population).map(|_| sample_plan(&mean, &std, &mut rng)));
+        let worth = evaluate(&plans)?;
+        rollouts += (plans.len() * starts.len()) as u64;
+        simulated_steps += worth.iter().map(|w| w.2).sum::<u64>();
+        let mut order: Vec<usize> = (0..plans.len()).collect();
+        // Highest value first; ties keep the earlier candidate (the best so far first).
+        order.sort_by(|&a, &b| worth[b].0.total_cmp(&worth[a].0));
+        let elites: Vec<&Plan> = order[..c.elites].iter().map(|&k| &plans[k]).collect();
+        refit(&elites, c.min_std, &mut mean, &mut std);
+        best = (plans[order[0]].clone(), worth[order[0]]);
+    }
+    Ok(SharedSearch {
+        plan: best.0,
+        score_rate: best.1.1,
+        rollouts,
+        simulated_steps,
+    })
 }

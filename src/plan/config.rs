@@ -44,6 +44,24 @@ pub struct PlannerConfig {
     /// Stop searching once a plan scores (the score rate is what the ceiling measures);
     /// false searches the whole budget for the highest return.
     pub stop_when_scored: bool,
+    /// 0 (default): a plan searched for each episode from its own start. N > 0: one plan
+    /// searched once for N starts of the planner's own stream (its worth the mean over
+    /// them) and played unchanged, open loop, on every episode: what a single motion
+    /// earns on starts it never saw (and a consistent demonstration to clone, where
+    /// per-episode plans from near-identical starts differ). Stops early only once it
+    /// scores from all N.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub shared_starts: usize,
+    /// With `shared_starts`: each episode then searches a plan of its own starting from
+    /// the shared one (sampling spread `refine_std` around it) instead of playing it
+    /// unchanged: per-episode plans that stay near one motion. Absent (default): the
+    /// shared plan plays as it is.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub refine_std: Option<f32>,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 impl Default for PlannerConfig {
@@ -59,6 +77,8 @@ impl Default for PlannerConfig {
             max_rollout_steps: 2000,
             objective: Objective::Score,
             stop_when_scored: true,
+            shared_starts: 0,
+            refine_std: None,
         }
     }
 }
@@ -85,7 +105,17 @@ impl PlannerConfig {
                 self.elites, self.population
             ));
         }
-        for (key, value) in [("initial_std", self.initial_std), ("min_std", self.min_std)] {
+        if self.refine_std.is_some() && self.shared_starts == 0 {
+            return Err(
+                "planner.refine_std refines a shared plan: set planner.shared_starts".into(),
+            );
+        }
+        let refine = self.refine_std.unwrap_or(0.0);
+        for (key, value) in [
+            ("initial_std", self.initial_std),
+            ("min_std", self.min_std),
+            ("refine_std", refine),
+        ] {
             if !(value.is_finite() && value >= 0.0) {
                 return Err(format!("planner.{key} = {value}: must be finite and >= 0"));
             }
@@ -137,6 +167,27 @@ mod tests {
             ..PlannerConfig::default()
         };
         assert!(std.validate().unwrap_err().contains("planner.min_std"));
+        let alone = PlannerConfig {
+            refine_std: Some(0.2),
+            ..PlannerConfig::default()
+        };
+        assert!(
+            alone
+                .validate()
+                .unwrap_err()
+                .contains("planner.shared_starts")
+        );
+        let negative = PlannerConfig {
+            refine_std: Some(-0.2),
+            shared_starts: 2,
+            ..PlannerConfig::default()
+        };
+        assert!(
+            negative
+                .validate()
+                .unwrap_err()
+                .contains("planner.refine_std")
+        );
         let unknown = toml::from_str::<PlannerConfig>("populaton = 3");
         assert!(unknown.unwrap_err().message().contains("populaton"));
     }

@@ -1,10 +1,11 @@
-//! The planner's test episodes: a plan searched for each episode ([`crate::plan`]), then
-//! played on a fresh table from the same seed as any policy's test episode, and what the
-//! searches cost (`planner.json` beside the test metrics).
+//! The planner's test episodes: a plan searched for each episode ([`crate::plan`]), or one
+//! plan for all (`shared_starts`), then played on a fresh table from the same seed as any
+//! policy's test episode, and what the searches cost (`planner.json` beside the test
+//! metrics).
 
 use super::evaluation::{PlayError, PlayedEpisode, foosball_envs};
 use crate::files::{RunFileError, write_atomic};
-use crate::plan::{PlannerConfig, follow, search};
+use crate::plan::{Plan, PlannerConfig, SharedSearch, follow, search, search_shared};
 use foosball_env::FoosballConfig;
 use foosball_env::seeding::{PLANNER, derive_seed};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -29,27 +30,58 @@ pub struct PlanCost {
     /// plans: one per episode, so this is the cost of each step it plays).
     pub simulated_steps_per_played_step: f64,
     /// Episodes whose played return equals the search's prediction (all of those that
-    /// ended within `max_rollout_steps`, the table being deterministic).
+    /// ended within `max_rollout_steps`, the table being deterministic; 0 for a shared
+    /// plan, searched on other starts).
     pub replayed_exactly: u32,
-    /// Episodes that ended within `max_rollout_steps` (those that can replay exactly).
+    /// Episodes that ended within `max_rollout_steps` (those that can replay exactly; 0
+    /// for a shared plan).
     pub within_rollout_cap: u32,
     /// Wall time of searching and playing all episodes, s.
     pub wall_s: f64,
     /// Threads that shared the episodes.
     pub threads: usize,
+    /// The one plan of `shared_starts`, absent for per-episode plans.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shared: Option<SharedPlan>,
+}
+
+/// The plan searched once for `shared_starts` starts and played on every episode.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SharedPlan {
+    /// Share of the search's own starts it scores from.
+    pub search_score_rate: f64,
+    /// Its actions, one per segment (`[segments][8]`, each held `segment_steps`).
+    pub plan: Plan,
 }
 
 /// Plans and plays one episode from each of `seeds`, in seed order, the episodes shared
 /// among rayon's threads (the same episodes whatever their number); a progress bar on a
-/// terminal's stderr counts the episodes and the goals.
+/// terminal's stderr counts the episodes and the goals. With `shared_starts`, one plan
+/// is searched first on starts `derive_seed(seed, PLANNER, k)` (`seed` the one the test
+/// seeds derive from) and played on every episode, or with `refine_std` refined for each.
 pub fn play_planned(
     env: &FoosballConfig,
     planner: &PlannerConfig,
-    seeds: &[u64],
+    (seed, seeds): (u64, &[u64]),
     record: bool,
 ) -> Result<(Vec<PlayedEpisode>, PlanCost), PlayError> {
     planner.validate().map_err(PlayError::Env)?;
     let start = Instant::now();
+    let shared = match planner.shared_starts {
+        0 => None,
+        n => {
+            let starts: Vec<u64> = (0..n as u64)
+                .map(|k| derive_seed(seed, PLANNER, k))
+                .collect();
+            let search_seed = derive_seed(seed, PLANNER, u64::MAX);
+            Some(search_shared(env, &starts, search_seed, planner).map_err(PlayError::Env)?)
+        }
+    };
+    let refine = match (&shared, planner.refine_std) {
+        (Some(found), None) => return play_shared(env, planner, found, seeds, (record, start)),
+        (Some(found), Some(spread)) => Some((&found.plan, spread)),
+        (None, _) => None,
+    };
     let bar = ProgressBar::new(seeds.len() as u64).with_style(
         ProgressStyle::with_template("planner {pos}/{len} episodes, {per_sec}, ETA {eta} {msg}")
             .expect("valid template"),
@@ -61,7 +93,8 @@ pub fn play_planned(
             || foosball_envs(env, 1).map(|mut v| v.remove(0)),
             |table, &seed| {
                 let table = table.as_mut().map_err(|e| PlayError::Env(e.to_string()))?;
-                let found = search(table, seed, derive_seed(seed, PLANNER, 0), planner)?;
+                let search_seed = derive_seed(seed, PLANNER, 0);
+                let found = search(table, seed, search_seed, planner, refine)?;
                 let mut episode = PlayedEpisode::new(seed, record);
                 follow(
                     table,
@@ -84,17 +117,21 @@ pub fn play_planned(
     bar.finish_and_clear();
     let n = played.len().max(1) as f64;
     let steps: u64 = played.iter().map(|(e, _)| e.summary.steps).sum();
-    let simulated: u64 = played.iter().map(|(_, s)| s.simulated_steps).sum();
+    let (shared_rollouts, shared_steps) = shared
+        .as_ref()
+        .map_or((0, 0), |f| (f.rollouts, f.simulated_steps));
+    let simulated = shared_steps + played.iter().map(|(_, s)| s.simulated_steps).sum::<u64>();
     let within = played
         .iter()
         .filter(|(e, _)| e.summary.steps <= u64::from(planner.max_rollout_steps));
     let cost = PlanCost {
         planner: planner.clone(),
         episodes: played.len() as u32,
-        rollouts_per_episode: played
-            .iter()
-            .map(|(_, s)| f64::from(s.rollouts))
-            .sum::<f64>()
+        rollouts_per_episode: (shared_rollouts as f64
+            + played
+                .iter()
+                .map(|(_, s)| f64::from(s.rollouts))
+                .sum::<f64>())
             / n,
         simulated_steps_per_episode: simulated as f64 / n,
         simulated_steps_per_played_step: simulated as f64 / steps.max(1) as f64,
@@ -105,8 +142,53 @@ pub fn play_planned(
         within_rollout_cap: within.count() as u32,
         wall_s: start.elapsed().as_secs_f64(),
         threads: rayon::current_num_threads(),
+        shared: shared.map(|f| SharedPlan {
+            search_score_rate: f.score_rate,
+            plan: f.plan,
+        }),
     };
     Ok((played.into_iter().map(|(e, _)| e).collect(), cost))
+}
+
+/// [`play_planned`] with one plan, `found`, played unchanged on every episode.
+fn play_shared(
+    env: &FoosballConfig,
+    planner: &PlannerConfig,
+    found: &SharedSearch,
+    seeds: &[u64],
+    (record, start): (bool, Instant),
+) -> Result<(Vec<PlayedEpisode>, PlanCost), PlayError> {
+    let played: Vec<PlayedEpisode> = seeds
+        .par_iter()
+        .map_init(
+            || foosball_envs(env, 1).map(|mut v| v.remove(0)),
+            |table, &seed| {
+                let table = table.as_mut().map_err(|e| PlayError::Env(e.to_string()))?;
+                let mut episode = PlayedEpisode::new(seed, record);
+                let steps = planner.segment_steps;
+                follow(table, seed, &found.plan, steps, None, &mut episode)?;
+                Ok(episode)
+            },
+        )
+        .collect::<Result<_, PlayError>>()?;
+    let n = played.len().max(1) as f64;
+    let steps: u64 = played.iter().map(|e| e.summary.steps).sum();
+    let cost = PlanCost {
+        planner: planner.clone(),
+        episodes: played.len() as u32,
+        rollouts_per_episode: found.rollouts as f64 / n,
+        simulated_steps_per_episode: found.simulated_steps as f64 / n,
+        simulated_steps_per_played_step: found.simulated_steps as f64 / steps.max(1) as f64,
+        replayed_exactly: 0,
+        within_rollout_cap: 0,
+        wall_s: start.elapsed().as_secs_f64(),
+        threads: rayon::current_num_threads(),
+        shared: Some(SharedPlan {
+            search_score_rate: found.score_rate,
+            plan: found.plan.clone(),
+        }),
+    };
+    Ok((played, cost))
 }
 
 impl PlanCost {

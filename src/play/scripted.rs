@@ -128,7 +128,7 @@ impl Baseline {
                 .map(|k| derive_seed(self.seed, TEST_ENVS, k))
                 .collect();
             let planner = self.planner.clone().unwrap_or_default();
-            let (played, cost) = play_planned(&self.env, &planner, &seeds, record)?;
+            let (played, cost) = play_planned(&self.env, &planner, (self.seed, &seeds), record)?;
             return Ok((played, Some(cost)));
         }
         if self.env.observation.kind != ObservationKind::State {

@@ -25,6 +25,8 @@
 //! - [`train`]: the training loop, its events and its error;
 //! - [`checkpoint`]: resumable checkpoints at epoch ends;
 //! - [`init`]: networks to start from (`protocol.init_from`, fine-tuning);
+//! - [`demonstrations`]: episodes to learn from beside the agent's own
+//!   (`protocol.demonstrations`);
 //! - [`log`]: training logs (CSV and TensorBoard);
 //! - [`budget`]: memory and time a run will need, told before it starts;
 //! - [`lock`]: one process at a time trains a run directory;
@@ -32,6 +34,7 @@
 
 pub mod budget;
 pub mod checkpoint;
+pub mod demonstrations;
 pub mod init;
 pub mod interrupt;
 pub mod lock;

@@ -3,6 +3,7 @@
 //! (resumable), then the test phase.
 
 use super::checkpoint::{self, CheckpointError, LoopState};
+use super::demonstrations::give_demonstrations;
 use super::init::init_networks;
 use super::interrupt;
 use super::lock::{LockError, RunLock};
@@ -56,7 +57,8 @@ pub enum TrainError {
     /// `--resume` on a directory without a checkpoint.
     #[error("{0}: no checkpoint to resume from (none is written before the first epoch ends)")]
     NoCheckpoint(PathBuf),
-    /// `protocol.init_from` names networks that cannot start this run.
+    /// `protocol.init_from` names networks that cannot start this run, or
+    /// `protocol.demonstrations` episodes it cannot learn from.
     #[error("{0}")]
     Init(String),
     /// Self-play's pool could not be saved, loaded or written.
@@ -200,6 +202,7 @@ pub fn train(
     pool.install(|| {
         let device = device(config)?;
         let mut agent = build_agent(config, &device);
+        give_demonstrations(config, agent.as_mut()).map_err(TrainError::Init)?;
         let state = match start {
             Start::Resume => {
                 let dir = checkpoint::find(run_dir)

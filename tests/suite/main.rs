@@ -14,6 +14,7 @@ mod algo_reproducibility;
 mod architecture;
 mod committed_runs;
 mod config_files;
+mod demonstrations;
 mod evaluation;
 mod foosball_env;
 mod image_obs;

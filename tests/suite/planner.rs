@@ -1,10 +1,12 @@
 //! The planner ([`foosball_rl::plan`]): it finds scoring plans where doing nothing never
 //! scores, its plans replay exactly (the table is deterministic), the same seeds give the
-//! same episodes whatever the thread count, and bad budgets are refused by name.
+//! same episodes whatever the thread count, one shared plan plays every episode alike,
+//! earns on its search starts what the search says and can be refined per episode, and
+//! bad budgets are refused by name.
 
 use foosball_rl::env::FoosballConfig;
 use foosball_rl::env::seeding::{TEST_ENVS, derive_seed};
-use foosball_rl::plan::PlannerConfig;
+use foosball_rl::plan::{Outcome, PlannerConfig, follow, search_shared};
 use foosball_rl::play::evaluation::PlayedEpisode;
 use foosball_rl::play::planned::{PlanCost, play_planned};
 use foosball_rl::play::scripted::{Baseline, ScriptedPolicy};
@@ -32,7 +34,58 @@ fn planned(threads: usize) -> (Vec<PlayedEpisode>, PlanCost) {
         .build()
         .unwrap();
     let env = FoosballConfig::default();
-    pool.install(|| play_planned(&env, &small(), &seeds(12), false).unwrap())
+    pool.install(|| play_planned(&env, &small(), (0, &seeds(12)), false).unwrap())
+}
+
+#[test]
+fn a_shared_plan_plays_every_episode_alike_and_scores_on_its_starts_as_searched() {
+    let env = FoosballConfig::default();
+    let shared = PlannerConfig {
+        shared_starts: 4,
+        ..small()
+    };
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| play_planned(&env, &shared, (0, &seeds(6)), true).unwrap())
+    };
+    let (one, cost) = run(1);
+    assert_eq!(one, run(2).0, "the same episodes on 1 and 2 threads");
+    let plan = cost.shared.expect("a shared plan").plan;
+    assert_eq!(plan.len(), shared.segments);
+    // Every episode plays the plan's actions, step by step, until it ends.
+    for e in &one {
+        let actions = &e.trajectory.as_ref().unwrap().actions;
+        for (t, a) in actions.chunks_exact(8).enumerate() {
+            let k = (t / shared.segment_steps).min(plan.len() - 1);
+            assert_eq!(a, &plan[k][..], "episode {} step {t}", e.seed);
+        }
+    }
+    // Refined per episode from the shared plan, each plan replays as searched.
+    let refined = PlannerConfig {
+        refine_std: Some(0.2),
+        ..shared.clone()
+    };
+    let (episodes, cost) = play_planned(&env, &refined, (0, &seeds(4)), false).unwrap();
+    assert_eq!(cost.shared.map(|s| s.plan), Some(plan));
+    assert_eq!(cost.replayed_exactly, cost.within_rollout_cap);
+    assert_eq!(cost.within_rollout_cap, 4);
+    assert!(episodes.iter().filter(|e| e.summary.scored).count() >= 2);
+    let starts: Vec<u64> = (0..8).map(|k| derive_seed(5, TEST_ENVS, k)).collect();
+    let found = search_shared(&env, &starts, 9, &small()).unwrap();
+    let mut table = foosball_rl::env::FoosballEnv::new(env.clone()).unwrap();
+    let goals = starts
+        .iter()
+        .filter(|&&s| {
+            let mut o = Outcome::default();
+            follow(&mut table, s, &found.plan, 5, None, &mut o).unwrap();
+            o.scored
+        })
+        .count();
+    assert_eq!(found.score_rate, goals as f64 / 8.0);
+    assert_eq!(found.rollouts % 8, 0);
 }
 
 #[test]

@@ -1,5 +1,6 @@
 //! The one shape every algorithm has, so one training loop drives PPO, SAC and TD3.
 
+use crate::demonstrations::Demonstration;
 use foosball_nets::{Scalar, Snapshot, SnapshotError};
 use std::path::Path;
 
@@ -133,4 +134,12 @@ pub trait Agent {
     fn save_state<'a>(&'a self, snap: &mut Snapshot<'a>);
     /// Restores what [`Agent::save_state`] stored (the networks come from `load`).
     fn load_state(&mut self, snap: &Snapshot<'_>) -> Result<(), SnapshotError>;
+    /// Holds `episodes` as demonstrations to learn from beside the agent's own
+    /// experience (they are not part of [`Agent::save_state`]: a resumed run is given
+    /// them again) and returns the transitions kept; an error says why they cannot be
+    /// used. By default an agent takes none.
+    fn set_demonstrations(&mut self, episodes: &[Demonstration<'_>]) -> Result<usize, String> {
+        let _ = episodes;
+        Err("this algorithm learns from its own rollouts only and takes no demonstrations".into())
+    }
 }

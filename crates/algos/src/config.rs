@@ -137,6 +137,11 @@ pub struct OffPolicyConfig {
     /// bootstrap with `gamma^n`; windows cut by a termination are stored shorter (they do
     /// not bootstrap), windows cut shorter than `n` by a truncation are dropped.
     pub n_step: usize,
+    /// Share of every minibatch drawn from the demonstrations (`protocol.demonstrations`
+    /// in a run), the rest from the replay; 0.5 is RLPD's symmetric sampling. Absent
+    /// (default): no demonstrations, SB3's sampling. One-step returns only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub demo_share: Option<f32>,
 }
 
 impl Default for OffPolicyConfig {
@@ -150,6 +155,7 @@ impl Default for OffPolicyConfig {
             gradient_steps: 1,
             reward_scale: 1.0,
             n_step: 1,
+            demo_share: None,
         }
     }
 }
@@ -175,7 +181,17 @@ impl OffPolicyConfig {
             "reward_scale",
             "must be finite and positive",
         )?;
-        ensure(self.n_step > 0, "n_step", "must be positive")
+        ensure(self.n_step > 0, "n_step", "must be positive")?;
+        ensure(
+            self.demo_share.is_none_or(|s| s > 0.0 && s < 1.0),
+            "demo_share",
+            "must be in (0, 1)",
+        )?;
+        ensure(
+            self.demo_share.is_none() || self.n_step == 1,
+            "demo_share",
+            "takes one-step returns (n_step = 1)",
+        )
     }
 
     /// The critics' discount of the bootstrapped value: `gamma^n_step`.

@@ -1,14 +1,16 @@
 //! Learning algorithms for foosball-rl: PPO, SAC and TD3 with Stable-Baselines3's
 //! definitions, the replay buffer SAC and TD3 share (`replay`; image planes stored once
 //! each in `plane_store`), PPO's rollout buffer and GAE (`rollout_buffer`), the collector
-//! that steps a VecEnv for any of them (`rollout`), and the [`Agent`] shape through which
-//! one training loop drives all three.
+//! that steps a VecEnv for any of them (`rollout`), demonstrations mixed into SAC's and
+//! TD3's minibatches (`demonstrations`), and the [`Agent`] shape through which one
+//! training loop drives all three.
 //!
 //! Each algorithm file states its update equations at the top (CleanRL style); the
 //! networks and Adam live in `foosball-nets`, the environments in `foosball-env`.
 
 pub mod agent;
 pub mod config;
+pub mod demonstrations;
 pub mod off_policy;
 pub mod plane_store;
 pub mod ppo;
@@ -22,6 +24,7 @@ pub mod tensors;
 
 pub use agent::{ActMode, Agent, AgentError, Experience, Metrics};
 pub use config::{ConfigError, NetConfig, OffPolicyConfig};
+pub use demonstrations::Demonstration;
 pub use ppo::{Ppo, PpoConfig};
 pub use replay::{ReplayBatch, ReplayBuffer};
 pub use rollout::{

@@ -1,10 +1,12 @@
 //! What SAC and TD3 share: the replay buffer (rewards stored times `reward_scale`, summed
-//! over `n_step` steps), uniform random actions before `learning_starts`, and the
+//! over `n_step` steps), demonstrations mixed into each minibatch at `demo_share`,
+//! uniform random actions before `learning_starts`, and the
 //! train-every-`train_freq`-steps schedule. The algorithm itself is an
 //! [`OffPolicyLearner`].
 
 use crate::agent::{ActMode, Agent, AgentError, Experience, Metrics};
 use crate::config::OffPolicyConfig;
+use crate::demonstrations::{Demonstration, demonstration_buffer};
 use crate::replay::{ReplayBatch, ReplayBuffer};
 use crate::schedule::LrSchedule;
 use foosball_nets::{ObsShape, Snapshot, SnapshotError};
@@ -40,6 +42,8 @@ pub struct OffPolicy<L> {
     schedule: OffPolicyConfig,
     lr: LrSchedule,
     buffer: ReplayBuffer,
+    /// Demonstrated transitions, never overwritten (`set_demonstrations`).
+    demos: Option<ReplayBuffer>,
     rng: ChaCha8Rng,
     sample_rng: ChaCha8Rng,
     env_steps: u64,
@@ -79,6 +83,7 @@ impl<L: OffPolicyLearner> OffPolicy<L> {
             schedule,
             lr,
             buffer,
+            demos: None,
             sample_rng: rng.clone(),
             rng,
             env_steps: 0,
@@ -99,6 +104,20 @@ impl<L: OffPolicyLearner> OffPolicy<L> {
         let first = window.pop_front().expect("a window holds a step");
         self.buffer
             .push(&first.obs, &first.action, ret, reached, terminated, timeout);
+    }
+
+    /// A minibatch of `batch_size` rows: `round(demo_share * batch_size)` demonstrations
+    /// first when there are any, the rest from the replay.
+    fn minibatch(&mut self) -> ReplayBatch {
+        let size = self.schedule.batch_size;
+        let (Some(demos), Some(share)) = (&self.demos, self.schedule.demo_share) else {
+            return self.buffer.sample(size, &mut self.rng);
+        };
+        let k = ((share * size as f32).round() as usize).min(size);
+        let mut batch = demos.sample(k, &mut self.rng);
+        batch.demos = k;
+        batch.extend(self.buffer.sample(size - k, &mut self.rng));
+        batch
     }
 
     /// The algorithm.
@@ -179,13 +198,12 @@ impl<L: OffPolicyLearner> Agent for OffPolicy<L> {
             return None;
         }
         self.steps_since_train = 0;
-        let lr = self.lr.at(progress_remaining);
-        let rounds: Vec<Metrics> = (0..s.gradient_steps)
-            .map(|_| {
-                let batch = self.buffer.sample(s.batch_size, &mut self.rng);
-                self.learner.train_step(&batch, lr, &mut self.rng)
-            })
-            .collect();
+        let (lr, steps) = (self.lr.at(progress_remaining), s.gradient_steps);
+        let mut rounds = Vec::with_capacity(steps);
+        for _ in 0..steps {
+            let batch = self.minibatch();
+            rounds.push(self.learner.train_step(&batch, lr, &mut self.rng));
+        }
         Some(Metrics::mean(rounds))
     }
 
@@ -249,6 +267,21 @@ impl<L: OffPolicyLearner> Agent for OffPolicy<L> {
         }
         self.buffer.load_state(snap, "replay")?;
         self.learner.load_state(snap)
+    }
+
+    fn set_demonstrations(&mut self, episodes: &[Demonstration<'_>]) -> Result<usize, String> {
+        if self.schedule.demo_share.is_none() {
+            return Err(
+                "off_policy.demo_share is not set: no share of the minibatches would \
+                        draw from them"
+                    .into(),
+            );
+        }
+        let (o, a) = (self.obs_dim, self.action_dim);
+        let buffer = demonstration_buffer(episodes, o, a, self.schedule.reward_scale)?;
+        let rows = buffer.len();
+        self.demos = Some(buffer);
+        Ok(rows)
     }
 }
 
@@ -362,6 +395,55 @@ mod tests {
                 .to_string()
                 .contains("reward_scale")
         );
+    }
+
+    #[test]
+    fn demo_share_fills_the_leading_rows_of_every_minibatch_with_demonstrations() {
+        let schedule = OffPolicyConfig {
+            learning_starts: 0,
+            batch_size: 8,
+            demo_share: Some(0.25),
+            ..OffPolicyConfig::default()
+        };
+        let new = |schedule: OffPolicyConfig| {
+            let rng = ChaCha8Rng::seed_from_u64(2);
+            let lr = LrSchedule::Constant(1e-3);
+            OffPolicy::new(
+                Recorder::default(),
+                (ObsShape::Vector(1), 1),
+                (schedule, 0.9),
+                lr,
+                rng,
+            )
+        };
+        let mut plain = new(OffPolicyConfig {
+            demo_share: None,
+            ..schedule.clone()
+        });
+        let demo = Demonstration {
+            obs: &[-1.0, -2.0],
+            actions: &[0.5, 0.5],
+            rewards: &[7.0, 7.0],
+            terminated: true,
+        };
+        let refused = plain.set_demonstrations(&[demo]).unwrap_err();
+        assert!(refused.contains("demo_share"), "{refused}");
+        let mut agent = new(schedule);
+        assert_eq!(agent.set_demonstrations(&[demo]), Ok(2));
+        for k in 0..3 {
+            step(&mut agent, k, k as f32 + 1.0, (false, false));
+            agent.update(1.0);
+        }
+        let rows = &agent.learner().rows;
+        assert_eq!(rows.len(), 24);
+        for batch in rows.chunks(8) {
+            // Demonstrated rows are the negative observations, reward 7.
+            assert!(
+                batch[..2].iter().all(|r| r.0 < 0.0 && r.1 == 7.0),
+                "{batch:?}"
+            );
+            assert!(batch[2..].iter().all(|r| r.0 >= 0.0), "{batch:?}");
+        }
     }
 
     /// One env step of a 1-dim env: observation `k`, reward `k + 1`, reaching `next`.

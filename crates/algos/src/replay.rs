@@ -22,6 +22,29 @@ pub struct ReplayBatch {
     /// 1 where the episode terminated, 0 otherwise; a time-limit truncation counts as 0
     /// so its target bootstraps (SB3's `handle_timeout_termination`).
     pub dones: Vec<f32>,
+    /// How many leading rows are demonstrations (`off_policy.demo_share`); 0 without.
+    pub demos: usize,
+}
+
+impl ReplayBatch {
+    /// Rows.
+    pub fn len(&self) -> usize {
+        self.rewards.len()
+    }
+
+    /// Whether the batch holds no row.
+    pub fn is_empty(&self) -> bool {
+        self.rewards.is_empty()
+    }
+
+    /// Appends `other`'s rows after this batch's (its `demos` count is not carried).
+    pub fn extend(&mut self, other: ReplayBatch) {
+        self.obs.extend(other.obs);
+        self.actions.extend(other.actions);
+        self.rewards.extend(other.rewards);
+        self.next_obs.extend(other.next_obs);
+        self.dones.extend(other.dones);
+    }
 }
 
 /// A ring buffer of transitions with a fixed capacity, allocated once; the oldest row
@@ -190,6 +213,7 @@ impl ReplayBuffer {
             rewards: Vec::with_capacity(batch_size),
             next_obs: Vec::with_capacity(batch_size * o),
             dones: Vec::with_capacity(batch_size),
+            demos: 0,
         };
         for _ in 0..batch_size {
             let i = rng.random_range(0..self.len);

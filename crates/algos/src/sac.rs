@@ -8,6 +8,9 @@
 //!    (`gamma^n` with `n_step` returns),
 //!    `a' ~ pi(.|s')`; `L = 0.5 * (MSE(Q1(s, a), y) + MSE(Q2(s, a), y))`;
 //! 4. actor, against the *updated* critics: `L = mean(alpha log pi(a~|s) - min(Q1, Q2)(s, a~))`;
+//!    with `bc_weight` (demonstrations only) TD3+BC's form instead (Fujimoto & Gu 2021):
+//!    `L / mean|min(Q1, Q2)| + bc_weight * mean((tanh(mu(s_d)) - a_d)^2)` over the
+//!    minibatch's demonstrated rows `(s_d, a_d)`, the scale a constant of the step;
 //! 5. targets: `theta' <- tau theta + (1 - tau) theta'` every `target_update_interval` steps.
 
 use crate::agent::{ActMode, AgentError, Metrics};
@@ -48,6 +51,11 @@ pub struct SacConfig {
     /// itself. Absent (default): no average, SB3's SAC.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub actor_average_tau: Option<f32>,
+    /// Weight of behaviour cloning on the demonstrated rows of each minibatch (needs
+    /// `off_policy.demo_share`): the actor's loss becomes TD3+BC's (step 4 above; their
+    /// `alpha = 2.5` is `bc_weight = 0.4`). Absent (default): SB3's actor loss.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bc_weight: Option<f32>,
 }
 
 impl Default for SacConfig {
@@ -60,6 +68,7 @@ impl Default for SacConfig {
             target_entropy: None,
             target_update_interval: 1,
             actor_average_tau: None,
+            bc_weight: None,
         }
     }
 }
@@ -91,6 +100,16 @@ impl SacConfig {
             self.actor_average_tau.is_none_or(|t| t > 0.0 && t <= 1.0),
             "actor_average_tau",
             "must be in (0, 1]",
+        )?;
+        ensure(
+            self.bc_weight.is_none_or(|w| w.is_finite() && w >= 0.0),
+            "bc_weight",
+            "must be finite and not negative",
+        )?;
+        ensure(
+            self.bc_weight.is_none() || self.off_policy.demo_share.is_some(),
+            "bc_weight",
+            "clones demonstrations: set off_policy.demo_share",
         )
     }
 }
@@ -311,8 +330,16 @@ impl OffPolicyLearner for Sac {
             .step_in_place(&mut self.critic, &mut grads, lr);
 
         // 4. Actor, against the updated critics (their parameters frozen).
-        let min_q_pi = self.critic.clone().no_grad().min(obs, actions_pi);
-        let actor_loss = (log_prob.clone() * alpha.clone().autodiff() - min_q_pi).mean();
+        let min_q_pi = self.critic.clone().no_grad().min(obs.clone(), actions_pi);
+        let q_scale = min_q_pi.clone().detach().abs().mean().clamp_min(1e-6);
+        let mut actor_loss = (log_prob.clone() * alpha.clone().autodiff() - min_q_pi).mean();
+        if let (Some(weight), true) = (self.config.bc_weight, batch.demos > 0) {
+            let d = batch.demos;
+            let cloned = self.actor.deterministic(obs.narrow(0, 0, d));
+            let played = matrix(&batch.actions[..d * a], a, &dev);
+            let bc = (cloned - played).square().mean();
+            actor_loss = actor_loss / q_scale + bc.mul_scalar(weight);
+        }
         let actor_loss_value = mean(actor_loss.clone().inner());
         let mut grads = actor_loss.backward();
         let actor_report = self

@@ -1,0 +1,154 @@
+//! Demonstrations for the off-policy learners: episodes another player played (the
+//! planner's, say), held in a replay buffer of their own that is never overwritten and
+//! mixed into every minibatch at `off_policy.demo_share` (RLPD's symmetric sampling
+//! when 0.5; Ball et al. 2023).
+
+use crate::replay::ReplayBuffer;
+
+/// One demonstrated episode, row-major, of `T` steps: `obs` `[T, obs_dim]` (the states
+/// acted on), `actions` `[T, action_dim]` in `[-1, 1]`, `rewards` `[T]` (the env's,
+/// unscaled); `terminated` says whether it ended in a terminal state (else it was cut).
+#[derive(Clone, Copy, Debug)]
+pub struct Demonstration<'a> {
+    /// States acted on, `[T, obs_dim]`.
+    pub obs: &'a [f32],
+    /// Actions played, `[T, action_dim]`.
+    pub actions: &'a [f32],
+    /// Rewards received, `[T]`.
+    pub rewards: &'a [f32],
+    /// The episode ended in a terminal state on its last step.
+    pub terminated: bool,
+}
+
+/// The transitions of `episodes` in a buffer of exactly their number:
+/// `(s_t, a_t, reward_scale * r_t, s_(t+1))`. The last step of a terminated episode is
+/// terminal (its next state never enters a target); the last step of a cut one is
+/// dropped, its next state being unknown. An error names the episode whose widths do not
+/// fit `obs_dim`/`action_dim` or that holds a non-finite value.
+pub fn demonstration_buffer(
+    episodes: &[Demonstration<'_>],
+    obs_dim: usize,
+    action_dim: usize,
+    reward_scale: f32,
+) -> Result<ReplayBuffer, String> {
+    let mut rows = 0;
+    for (k, e) in episodes.iter().enumerate() {
+        let t = e.rewards.len();
+        if e.obs.len() != t * obs_dim || e.actions.len() != t * action_dim {
+            return Err(format!(
+                "demonstration {k}: {} observation and {} action values for {t} steps; \
+                 the learner takes {obs_dim} and {action_dim} per step",
+                e.obs.len(),
+                e.actions.len()
+            ));
+        }
+        let finite = e.obs.iter().chain(e.actions).chain(e.rewards);
+        if !finite.clone().all(|x| x.is_finite()) {
+            return Err(format!("demonstration {k}: a non-finite value"));
+        }
+        rows += if e.terminated { t } else { t.saturating_sub(1) };
+    }
+    if rows == 0 {
+        return Err("the demonstrations hold no transition".into());
+    }
+    let mut buffer = ReplayBuffer::new(rows, obs_dim, action_dim);
+    for e in episodes {
+        let t = e.rewards.len();
+        for i in 0..t {
+            let last = i + 1 == t;
+            if last && !e.terminated {
+                break;
+            }
+            let next = if last { i } else { i + 1 };
+            buffer.push(
+                &e.obs[i * obs_dim..(i + 1) * obs_dim],
+                &e.actions[i * action_dim..(i + 1) * action_dim],
+                e.rewards[i] * reward_scale,
+                &e.obs[next * obs_dim..(next + 1) * obs_dim],
+                last,
+                false,
+            );
+        }
+    }
+    Ok(buffer)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+
+    #[test]
+    fn transitions_link_consecutive_states_end_terminal_or_drop_the_cut_step() {
+        // Observation k is [k]; action k is [-k / 10]; reward k is k + 1.
+        let obs: Vec<f32> = (0..3).map(|k| k as f32).collect();
+        let actions: Vec<f32> = (0..3).map(|k| -(k as f32) / 10.0).collect();
+        let rewards: Vec<f32> = (0..3).map(|k| k as f32 + 1.0).collect();
+        let ended = Demonstration {
+            obs: &obs,
+            actions: &actions,
+            rewards: &rewards,
+            terminated: true,
+        };
+        let cut = Demonstration {
+            terminated: false,
+            ..ended
+        };
+        let buffer = demonstration_buffer(&[ended, cut], 1, 1, 0.5).unwrap();
+        assert_eq!(buffer.len(), 5);
+        assert_eq!(buffer.capacity(), 5);
+        let batch = buffer.sample(400, &mut ChaCha8Rng::seed_from_u64(0));
+        let mut seen: Vec<(f32, f32, f32, f32, f32)> = (0..400)
+            .map(|i| {
+                let b = &batch;
+                (
+                    b.obs[i],
+                    b.actions[i],
+                    b.rewards[i],
+                    b.next_obs[i],
+                    b.dones[i],
+                )
+            })
+            .collect();
+        seen.sort_by(|x, y| x.partial_cmp(y).unwrap());
+        seen.dedup();
+        assert_eq!(
+            seen,
+            vec![
+                (0.0, 0.0, 0.5, 1.0, 0.0),
+                (1.0, -0.1, 1.0, 2.0, 0.0),
+                (2.0, -0.2, 1.5, 2.0, 1.0),
+            ]
+        );
+    }
+
+    #[test]
+    fn misfit_widths_non_finite_values_and_no_rows_are_refused_by_episode() {
+        let good = Demonstration {
+            obs: &[0.0, 1.0],
+            actions: &[0.5],
+            rewards: &[1.0],
+            terminated: true,
+        };
+        let wide = demonstration_buffer(&[good, good], 1, 1, 1.0).unwrap_err();
+        assert!(
+            wide.contains("demonstration 0") && wide.contains("takes 1 and 1"),
+            "{wide}"
+        );
+        let nan = Demonstration {
+            obs: &[0.0],
+            actions: &[f32::NAN],
+            ..good
+        };
+        let err = demonstration_buffer(&[nan], 1, 1, 1.0).unwrap_err();
+        assert!(err.contains("non-finite"), "{err}");
+        let one_cut = Demonstration {
+            obs: &[0.0],
+            terminated: false,
+            ..good
+        };
+        let err = demonstration_buffer(&[one_cut], 1, 1, 1.0).unwrap_err();
+        assert!(err.contains("no transition"), "{err}");
+    }
+}

@@ -1,0 +1,98 @@
+//! Demonstrations (`protocol.demonstrations` + `off_policy.demo_share`): a run learns
+//! from a `trajectories.bin` that `evaluate` recorded, the same numbers twice and other
+//! numbers than without them; files recorded on the run's own evaluation or test starts,
+//! an image observation, a missing file and half-set keys are refused by key.
+
+use crate::common;
+
+use common::{scratch, tiny_config_text};
+use foosball_rl::config::RunConfig;
+use foosball_rl::play::scripted::{Baseline, ScriptedPolicy};
+use foosball_rl::run::train::{Start, train};
+use std::path::{Path, PathBuf};
+
+/// The shooter's `episodes` recorded on the tiny table from seed `seed`'s test starts.
+fn record(dir: &Path, seed: u64) -> PathBuf {
+    let c = RunConfig::from_toml(&tiny_config_text("sac", 1, 200), Path::new("t.toml")).unwrap();
+    let shooter = Baseline {
+        policy: ScriptedPolicy::Shooter,
+        seed,
+        env: c.env,
+        planner: None,
+    };
+    let out = dir.join(format!("shooter-{seed}"));
+    shooter.test(6, &out, true).unwrap();
+    out.join("trajectories.bin")
+}
+
+fn with_demos(file: &Path, extra: &str) -> String {
+    tiny_config_text("sac", 1, 200)
+        .replace(
+            "[protocol]\n",
+            &format!("[protocol]\ndemonstrations = \"{}\"\n", file.display()),
+        )
+        .replace(
+            "[sac.off_policy]\n",
+            &format!("[sac.off_policy]\ndemo_share = 0.5\n{extra}"),
+        )
+}
+
+fn run(dir: &Path, name: &str, text: &str) -> Result<Vec<u8>, String> {
+    let out = dir.join(name);
+    std::fs::create_dir_all(&out).unwrap();
+    let c = RunConfig::from_toml(text, Path::new("t.toml")).map_err(|e| e.to_string())?;
+    train(&c, &out, Start::Fresh, |_| {}).map_err(|e| e.to_string())?;
+    Ok(std::fs::read(out.join("test/metrics.json")).unwrap())
+}
+
+#[test]
+fn a_run_learns_from_recorded_episodes_reproducibly() {
+    let dir = scratch("demonstrations");
+    let file = record(&dir, 1000);
+    let cloning = with_demos(&file, "").replace("[sac.net]", "[sac]\nbc_weight = 0.4\n[sac.net]");
+    let first = run(&dir, "a", &cloning).unwrap();
+    assert_eq!(first, run(&dir, "b", &cloning).unwrap(), "not reproducible");
+    let alone = run(&dir, "alone", &tiny_config_text("sac", 1, 200)).unwrap();
+    assert_ne!(first, alone, "the demonstrations changed nothing");
+    let rl_only = run(&dir, "rl-only", &with_demos(&file, "")).unwrap();
+    assert_ne!(first, rl_only, "behaviour cloning changed nothing");
+}
+
+#[test]
+fn demonstrations_that_do_not_fit_the_run_are_refused_by_key() {
+    let dir = scratch("demonstrations-refused");
+    // Seed 3 is the tiny run's own: its test starts would be learnt from.
+    let own = record(&dir, 3);
+    let err = run(&dir, "own", &with_demos(&own, "")).unwrap_err();
+    assert!(
+        err.contains("protocol.demonstrations") && err.contains("evaluation or test starts"),
+        "{err}"
+    );
+    let missing = dir.join("none.bin");
+    let err = run(&dir, "missing", &with_demos(&missing, "")).unwrap_err();
+    assert!(err.contains("none.bin"), "{err}");
+    let file = record(&dir, 1000);
+    let half = with_demos(&file, "").replace("demo_share = 0.5\n", "");
+    let err = run(&dir, "half", &half).unwrap_err();
+    assert!(
+        err.contains("protocol.demonstrations") && err.contains("demo_share"),
+        "{err}"
+    );
+    let other_half = tiny_config_text("sac", 1, 200)
+        .replace("[sac.off_policy]\n", "[sac.off_policy]\ndemo_share = 0.5\n");
+    let err = run(&dir, "other-half", &other_half).unwrap_err();
+    assert!(err.contains("sac.off_policy.demo_share"), "{err}");
+    let bc_alone =
+        tiny_config_text("sac", 1, 200).replace("[sac.net]", "[sac]\nbc_weight = 0.4\n[sac.net]");
+    let err = run(&dir, "bc", &bc_alone).unwrap_err();
+    assert!(err.contains("bc_weight"), "{err}");
+    let ppo = tiny_config_text("ppo", 1, 200).replace(
+        "[protocol]\n",
+        &format!("[protocol]\ndemonstrations = \"{}\"\n", file.display()),
+    );
+    let err = run(&dir, "ppo", &ppo).unwrap_err();
+    assert!(err.contains("protocol.demonstrations"), "{err}");
+    let images = with_demos(&file, "") + "[env.observation]\nkind = \"image\"\n";
+    let err = run(&dir, "images", &images).unwrap_err();
+    assert!(err.contains("this run observes images"), "{err}");
+}
