@@ -27,16 +27,6 @@ pub struct ReplayBatch {
 }
 
 impl ReplayBatch {
-    /// Rows.
-    pub fn len(&self) -> usize {
-        self.rewards.len()
-    }
-
-    /// Whether the batch holds no row.
-    pub fn is_empty(&self) -> bool {
-        self.rewards.is_empty()
-    }
-
     /// Appends `other`'s rows after this batch's (its `demos` count is not carried).
     pub fn extend(&mut self, other: ReplayBatch) {
         self.obs.extend(other.obs);

@@ -331,9 +331,10 @@ impl OffPolicyLearner for Sac {
 
         // 4. Actor, against the updated critics (their parameters frozen).
         let min_q_pi = self.critic.clone().no_grad().min(obs.clone(), actions_pi);
-        let q_scale = min_q_pi.clone().detach().abs().mean().clamp_min(1e-6);
+        let cloning = self.config.bc_weight.filter(|_| batch.demos > 0);
+        let q_scale = cloning.map(|_| min_q_pi.clone().detach().abs().mean().clamp_min(1e-6));
         let mut actor_loss = (log_prob.clone() * alpha.clone().autodiff() - min_q_pi).mean();
-        if let (Some(weight), true) = (self.config.bc_weight, batch.demos > 0) {
+        if let (Some(weight), Some(q_scale)) = (cloning, q_scale) {
             let d = batch.demos;
             let cloned = self.actor.deterministic(obs.narrow(0, 0, d));
             let played = matrix(&batch.actions[..d * a], a, &dev);
