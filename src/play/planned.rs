@@ -5,7 +5,7 @@
 
 use super::evaluation::{PlayError, PlayedEpisode, foosball_envs};
 use crate::files::{RunFileError, write_atomic};
-use crate::plan::{Plan, PlannerConfig, SharedSearch, follow, search, search_shared};
+use crate::plan::{Plan, PlannerConfig, follow, search, search_shared};
 use foosball_env::FoosballConfig;
 use foosball_env::seeding::{PLANNER, derive_seed};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -77,11 +77,12 @@ pub fn play_planned(
             Some(search_shared(env, &starts, search_seed, planner).map_err(PlayError::Env)?)
         }
     };
-    let refine = match (&shared, planner.refine_std) {
-        (Some(found), None) => return play_shared(env, planner, found, seeds, (record, start)),
-        (Some(found), Some(spread)) => Some((&found.plan, spread)),
-        (None, _) => None,
-    };
+    // A shared plan plays unchanged (no search per episode) unless `refine_std` is set.
+    let unchanged = shared.as_ref().filter(|_| planner.refine_std.is_none());
+    let refine = shared
+        .as_ref()
+        .zip(planner.refine_std)
+        .map(|(found, spread)| (&found.plan, spread));
     let bar = ProgressBar::new(seeds.len() as u64).with_style(
         ProgressStyle::with_template("planner {pos}/{len} episodes, {per_sec}, ETA {eta} {msg}")
             .expect("valid template"),
@@ -93,17 +94,18 @@ pub fn play_planned(
             || foosball_envs(env, 1).map(|mut v| v.remove(0)),
             |table, &seed| {
                 let table = table.as_mut().map_err(|e| PlayError::Env(e.to_string()))?;
-                let search_seed = derive_seed(seed, PLANNER, 0);
-                let found = search(table, seed, search_seed, planner, refine)?;
+                let found = match unchanged {
+                    Some(_) => None,
+                    None => {
+                        let search_seed = derive_seed(seed, PLANNER, 0);
+                        Some(search(table, seed, search_seed, planner, refine)?)
+                    }
+                };
+                let plan = (found.as_ref().map(|f| &f.plan))
+                    .or(unchanged.map(|one| &one.plan))
+                    .expect("an episode searches its plan or plays the shared one");
                 let mut episode = PlayedEpisode::new(seed, record);
-                follow(
-                    table,
-                    seed,
-                    &found.plan,
-                    planner.segment_steps,
-                    None,
-                    &mut episode,
-                )?;
+                follow(table, seed, plan, planner.segment_steps, None, &mut episode)?;
                 let scored = goals.fetch_add(u32::from(episode.summary.scored), Relaxed);
                 bar.set_message(format!(
                     "({} scored)",
@@ -120,18 +122,23 @@ pub fn play_planned(
     let (shared_rollouts, shared_steps) = shared
         .as_ref()
         .map_or((0, 0), |f| (f.rollouts, f.simulated_steps));
-    let simulated = shared_steps + played.iter().map(|(_, s)| s.simulated_steps).sum::<u64>();
-    let within = played
+    // Episodes searched for themselves: those whose play can match their search.
+    let searched = played
         .iter()
+        .filter_map(|(e, s)| s.as_ref().map(|s| (e, s)));
+    let simulated = shared_steps
+        + searched
+            .clone()
+            .map(|(_, s)| s.simulated_steps)
+            .sum::<u64>();
+    let within = searched
+        .clone()
         .filter(|(e, _)| e.summary.steps <= u64::from(planner.max_rollout_steps));
     let cost = PlanCost {
         planner: planner.clone(),
         episodes: played.len() as u32,
         rollouts_per_episode: (shared_rollouts as f64
-            + played
-                .iter()
-                .map(|(_, s)| f64::from(s.rollouts))
-                .sum::<f64>())
+            + searched.map(|(_, s)| f64::from(s.rollouts)).sum::<f64>())
             / n,
         simulated_steps_per_episode: simulated as f64 / n,
         simulated_steps_per_played_step: simulated as f64 / steps.max(1) as f64,
@@ -148,47 +155,6 @@ pub fn play_planned(
         }),
     };
     Ok((played.into_iter().map(|(e, _)| e).collect(), cost))
-}
-
-/// [`play_planned`] with one plan, `found`, played unchanged on every episode.
-fn play_shared(
-    env: &FoosballConfig,
-    planner: &PlannerConfig,
-    found: &SharedSearch,
-    seeds: &[u64],
-    (record, start): (bool, Instant),
-) -> Result<(Vec<PlayedEpisode>, PlanCost), PlayError> {
-    let played: Vec<PlayedEpisode> = seeds
-        .par_iter()
-        .map_init(
-            || foosball_envs(env, 1).map(|mut v| v.remove(0)),
-            |table, &seed| {
-                let table = table.as_mut().map_err(|e| PlayError::Env(e.to_string()))?;
-                let mut episode = PlayedEpisode::new(seed, record);
-                let steps = planner.segment_steps;
-                follow(table, seed, &found.plan, steps, None, &mut episode)?;
-                Ok(episode)
-            },
-        )
-        .collect::<Result<_, PlayError>>()?;
-    let n = played.len().max(1) as f64;
-    let steps: u64 = played.iter().map(|e| e.summary.steps).sum();
-    let cost = PlanCost {
-        planner: planner.clone(),
-        episodes: played.len() as u32,
-        rollouts_per_episode: found.rollouts as f64 / n,
-        simulated_steps_per_episode: found.simulated_steps as f64 / n,
-        simulated_steps_per_played_step: found.simulated_steps as f64 / steps.max(1) as f64,
-        replayed_exactly: 0,
-        within_rollout_cap: 0,
-        wall_s: start.elapsed().as_secs_f64(),
-        threads: rayon::current_num_threads(),
-        shared: Some(SharedPlan {
-            search_score_rate: found.score_rate,
-            plan: found.plan.clone(),
-        }),
-    };
-    Ok((played, cost))
 }
 
 impl PlanCost {
