@@ -14,10 +14,10 @@ use crate::schedule::LrSchedule;
 use crate::tensors::{host, matrix, mean, standard_normal, vector};
 use burn::module::Module;
 use foosball_nets::distributions::diag_gaussian_log_prob;
-use foosball_nets::host::read_all;
+use foosball_nets::host::{is_host, read_all};
 use foosball_nets::store::{load_module, save_module};
 use foosball_nets::{
-    Activation, Adam, AdamConfig, CnnConfig, Device, GaussianPolicy, ObsShape, Snapshot,
+    Activation, Adam, AdamConfig, CnnConfig, Device, GaussianPolicy, ObsShape, Scalar, Snapshot,
     SnapshotError, Tensor, ValueCritic,
 };
 use rand::SeedableRng;
@@ -135,13 +135,15 @@ pub struct Surrogate {
     /// `-mean(min(A ratio, A clip(ratio, 1 - eps, 1 + eps)))`, one element.
     pub loss: Tensor<1>,
     /// Share of rows with `|ratio - 1| > eps`.
-    pub clip_fraction: f64,
+    pub clip_fraction: Scalar,
     /// `mean((ratio - 1) - log ratio)`, the low-variance KL estimate SB3 logs.
-    pub approx_kl: f64,
+    pub approx_kl: Scalar,
 }
 
 /// PPO's clipped objective; `log_prob` `[batch]` carries the gradient, `old_log_prob`
-/// and `advantages` `[batch]` are constants.
+/// and `advantages` `[batch]` are constants. The diagnostics are summed on the host in
+/// f64 on a CPU backend (a read is free there) and stay on the device on a GPU, where
+/// only `target_kl` reads the KL estimate back.
 pub fn clipped_surrogate(
     log_prob: Tensor<1>,
     old_log_prob: Tensor<1>,
@@ -153,8 +155,17 @@ pub fn clipped_surrogate(
     let unclipped = advantages.clone() * ratio.clone();
     let clipped = advantages * ratio.clone().clamp(1.0 - clip, 1.0 + clip);
     let loss = unclipped.min_pair(clipped).mean().neg();
+    let (ratio, log_ratio) = (ratio.inner(), log_ratio.inner());
+    if !is_host(&ratio.device()) {
+        let excess = ratio.sub_scalar(1.0);
+        return Surrogate {
+            loss,
+            clip_fraction: Scalar::of(excess.clone().abs().greater_elem(clip).float().mean()),
+            approx_kl: Scalar::of((excess - log_ratio).mean()),
+        };
+    }
     // One read for both.
-    let [ratio, log_ratio]: [Vec<f32>; 2] = read_all(vec![ratio.inner(), log_ratio.inner()])
+    let [ratio, log_ratio]: [Vec<f32>; 2] = read_all(vec![ratio, log_ratio])
         .into_iter()
         .map(|d| d.try_into_vec::<f32>().expect("float tensors are f32"))
         .collect::<Vec<_>>()
@@ -170,8 +181,8 @@ pub fn clipped_surrogate(
         / n;
     Surrogate {
         loss,
-        clip_fraction,
-        approx_kl,
+        clip_fraction: clip_fraction.into(),
+        approx_kl: approx_kl.into(),
     }
 }
 
@@ -300,8 +311,10 @@ impl Ppo {
                 let values = self.model.value.forward(obs);
                 let surrogate =
                     clipped_surrogate(log_prob, old_log_prob, vector(&adv, &dev), c.clip_range);
+                // SB3's early stop needs the KL estimate on the host: one read per
+                // minibatch on a GPU, and only with `target_kl` set.
                 if c.target_kl
-                    .is_some_and(|kl| surrogate.approx_kl > 1.5 * f64::from(kl))
+                    .is_some_and(|kl| surrogate.approx_kl.clone().read() > 1.5 * f64::from(kl))
                 {
                     break 'epochs;
                 }
@@ -316,8 +329,8 @@ impl Ppo {
                     ("policy_loss", mean(surrogate.loss.inner())),
                     ("value_loss", mean(value_loss.inner())),
                     ("entropy", mean(entropy.inner())),
-                    ("approx_kl", surrogate.approx_kl.into()),
-                    ("clip_fraction", surrogate.clip_fraction.into()),
+                    ("approx_kl", surrogate.approx_kl),
+                    ("clip_fraction", surrogate.clip_fraction),
                     ("grad_norm", report.grad_norm),
                 ]));
             }

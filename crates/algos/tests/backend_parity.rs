@@ -13,8 +13,9 @@
 //! The same GPU path waits for the device only where it must: an off-policy update reads
 //! nothing back (losses, norms, the temperature and the optimiser's clipping and
 //! non-finite guard stay on the device) and a log window's metrics come back in one read;
-//! a PPO update reads once per minibatch (its KL estimate and clip fraction, as SB3) and
-//! once for the bootstrap values. Reads are counted by `foosball_nets::host::reads`.
+//! a PPO update (all its epochs and minibatches) reads once, for the bootstrap values, and
+//! once more per minibatch only when `target_kl` must compare the KL estimate (SB3's early
+//! stop). Reads are counted by `foosball_nets::host::reads`.
 //!
 //! `cargo test -p foosball-algos --release --features vulkan --test backend_parity`
 
@@ -238,21 +239,29 @@ fn off_policy_updates_read_nothing_back_until_the_log_window_ends() {
 }
 
 #[test]
-fn a_ppo_update_reads_once_per_minibatch_and_once_for_its_bootstrap() {
-    let mut config = PpoConfig {
-        n_steps: BATCH,
-        batch_size: BATCH / 4,
-        n_epochs: 2,
-        ..PpoConfig::default()
+fn a_ppo_update_reads_once_for_its_bootstrap_and_per_minibatch_only_with_target_kl() {
+    let config = |target_kl| {
+        let mut config = PpoConfig {
+            n_steps: BATCH,
+            batch_size: BATCH / 4,
+            n_epochs: 2,
+            target_kl,
+            ..PpoConfig::default()
+        };
+        shrink(&mut config.net, None);
+        config
     };
-    shrink(&mut config.net, None);
-    for (backend, gpu) in devices().1 {
-        let agent = &mut Ppo::new(OBS, ACT, config.clone(), 3, &gpu);
-        feed(agent, BATCH, 7);
-        let (metrics, n) = reads_in(|| agent.update(1.0));
-        let minibatches = 2 * 4;
-        assert_eq!(n, minibatches + 1, "PPO on {backend}");
-        let (_, n) = reads_in(|| metrics.expect("an update ran").read());
-        assert_eq!(n, 1, "PPO on {backend}");
+    let minibatches = 2 * 4;
+    // A target the KL estimate never reaches here, so every minibatch runs and reads it.
+    for (target_kl, reads) in [(None, 1), (Some(1e3), minibatches + 1)] {
+        for (backend, gpu) in devices().1 {
+            let agent = &mut Ppo::new(OBS, ACT, config(target_kl), 3, &gpu);
+            feed(agent, BATCH, 7);
+            let (metrics, n) = reads_in(|| agent.update(1.0));
+            assert_eq!(n, reads, "PPO on {backend}, target_kl {target_kl:?}");
+            let (values, n) = reads_in(|| metrics.expect("an update ran").read());
+            assert_eq!(n, 1, "PPO on {backend}");
+            assert!(values.iter().all(|(_, v)| v.is_finite()), "{values:?}");
+        }
     }
 }
