@@ -1,5 +1,5 @@
 //! `evaluate`: the test phase of a finished or interrupted run, on its saved networks, or
-//! of a scripted policy (`--policy shooter|dribbler|zero|random`) under a rule preset;
+//! of a scripted policy (`--policy shooter|dribbler|zero|random|blocker`) under a rule preset;
 //! with `--opponent`, two-sided matches against another player instead
 //! ([`foosball_rl::play::matches`]).
 

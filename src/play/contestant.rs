@@ -1,5 +1,5 @@
 //! Who plays one side of a two-sided match: a run's saved networks or a scripted policy,
-//! named on the command line as `shooter`, `random`, ... or `DIR[@best|@last][~sampled]`.
+//! named on the command line as `shooter`, `blocker`, ... or `DIR[@best|@last][~sampled]`.
 
 use std::fmt;
 use std::path::PathBuf;
@@ -35,7 +35,7 @@ pub enum Contestant {
 impl FromStr for Contestant {
     type Err = String;
 
-    /// `shooter`, `dribbler`, `zero`, `random`, or a run directory with optional
+    /// `shooter`, `dribbler`, `zero`, `random`, `blocker`, or a run directory with optional
     /// `@best`/`@last` and `~sampled` (e.g. `results/figure2/sac-seed0@best~sampled`).
     fn from_str(s: &str) -> Result<Self, String> {
         for policy in [
@@ -43,6 +43,7 @@ impl FromStr for Contestant {
             ScriptedPolicy::Dribbler,
             ScriptedPolicy::Zero,
             ScriptedPolicy::Random,
+            ScriptedPolicy::Blocker,
         ] {
             if s == policy.name() {
                 return Ok(Contestant::Scripted(policy));
@@ -66,7 +67,7 @@ impl FromStr for Contestant {
         if !dir.join("config.toml").is_file() {
             return Err(format!(
                 "contestant `{s}`: neither a scripted policy (shooter, dribbler, zero, \
-                 random) nor a run directory ({} has no config.toml)",
+                 random, blocker) nor a run directory ({} has no config.toml)",
                 dir.display()
             ));
         }

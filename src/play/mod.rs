@@ -9,7 +9,7 @@
 //! - [`trajectories`]: recorded episodes and `trajectories.bin`;
 //! - [`evaluation`]: a policy's episodes on held-out seeds, played side by side, and the
 //!   test files;
-//! - [`scripted`]: scripted yellow policies (shooter, dribbler, zero, random, and the
+//! - [`scripted`]: scripted yellow policies (shooter, dribbler, zero, random, blocker, and the
 //!   planner's ceiling);
 //! - [`planned`]: the planner's test episodes and what its searches cost;
 //! - [`player`]: who plays test episodes for `evaluate` and `render`;

@@ -1,5 +1,5 @@
 //! Scripted policies for yellow, played through the same evaluation as trained agents:
-//! the yardsticks of the report (`evaluate --policy shooter|dribbler|zero|random`), and
+//! the yardsticks of the report (`evaluate --policy shooter|dribbler|zero|random|blocker`), and
 //! the planner's ceiling (`evaluate --policy planner`, [`super::planned`]).
 
 use super::evaluation::{Episodes, OwnedPolicy, PlayError, PlayedEpisode, play, write_test};
@@ -9,7 +9,7 @@ use crate::files::{RunFileError, write_atomic};
 use crate::plan::PlannerConfig;
 use foosball_env::foosball::from_ball_frame;
 use foosball_env::layout::OBS_DIM;
-use foosball_env::opponent::{RandomOpponent, StaticOpponent};
+use foosball_env::opponent::{RandomOpponent, ScriptedOpponent, StaticOpponent};
 use foosball_env::scripted::Kicker;
 use foosball_env::seeding::TEST_ENVS;
 use foosball_env::seeding::derive_seed;
@@ -31,6 +31,10 @@ pub enum ScriptedPolicy {
     Zero,
     /// Every command uniform in [-1, 1] each step.
     Random,
+    /// Feet down, each rod slid to put a man in the ball's path: the goalkeeper-style
+    /// blocker that plays black as `env.opponent = "scripted"` and self-play's `scripted`
+    /// anchor. It never kicks on purpose.
+    Blocker,
     /// Searches the simulator for the best plan of each episode from its start and plays
     /// it: the task's empirical ceiling from those starts (not a policy of observations:
     /// it cannot play black in a match).
@@ -45,6 +49,7 @@ impl ScriptedPolicy {
             ScriptedPolicy::Dribbler => "dribbler",
             ScriptedPolicy::Zero => "zero",
             ScriptedPolicy::Random => "random",
+            ScriptedPolicy::Blocker => "blocker",
             ScriptedPolicy::Planner => "planner",
         }
     }
@@ -61,6 +66,7 @@ impl ScriptedPolicy {
             ScriptedPolicy::Dribbler => Box::new(Kicker::dribbler()),
             ScriptedPolicy::Zero => Box::new(StaticOpponent),
             ScriptedPolicy::Random => Box::new(RandomOpponent),
+            ScriptedPolicy::Blocker => Box::new(ScriptedOpponent),
             ScriptedPolicy::Planner => {
                 return Err(
                     "planner: it plans each episode from its seed with the simulator; it has no \

@@ -2,7 +2,7 @@
 //! yellow, matches replay from their seed, bad contestants are refused by name.
 
 use foosball_rl::env::layout::mirror_observation;
-use foosball_rl::env::{Env, FoosballConfig, FoosballEnv};
+use foosball_rl::env::{Env, FoosballConfig, FoosballEnv, OpponentKind};
 use foosball_rl::play::contestant::Contestant;
 use foosball_rl::play::matches::{MatchRules, PolicyOpponent, match_table, play_match};
 use foosball_rl::play::scripted::ScriptedPolicy;
@@ -82,6 +82,47 @@ fn a_policy_plays_black_as_the_mirror_image_of_yellow() {
 }
 
 #[test]
+fn the_blocker_contestant_is_the_tables_scripted_black() {
+    // `blocker` on black, through the mirrored view and the ball frame, plays what the
+    // table's own `opponent = "scripted"` plays: the shooter against either, served at
+    // (2, 26), gives the same states (within float rounding of the frame changes), and
+    // black's rods do move to follow the ball.
+    let (x, y) = (2.0, 26.0);
+    let contestant = states(ScriptedPolicy::Shooter, ScriptedPolicy::Blocker, x, y, 400);
+    let mut table = served_at(x, y);
+    table.opponent = OpponentKind::Scripted;
+    let mut act = Contestant::Scripted(ScriptedPolicy::Shooter)
+        .policy(&table, 1)
+        .unwrap();
+    let mut env = FoosballEnv::new(table).unwrap();
+    let mut obs = env.reset(Some(3));
+    let mut built_in = vec![*env.state().unwrap()];
+    for _ in 0..400 {
+        let (next, t) = env.step(&act(&obs)).unwrap();
+        built_in.push(*env.state().unwrap());
+        obs = next;
+        if t.done() {
+            break;
+        }
+    }
+    assert_eq!(contestant.len(), built_in.len());
+    for (k, (a, b)) in contestant.iter().zip(&built_in).enumerate() {
+        for (i, (a, b)) in a.iter().zip(b).enumerate() {
+            assert!(
+                (a - b).abs() <= 1e-3 * (1.0 + a.abs()),
+                "step {k}, value {i}: {a} vs {b}"
+            );
+        }
+    }
+    // Black's slides (state 10..14, cm) leave neutral to track the ball.
+    let slid = contestant
+        .iter()
+        .flat_map(|s| s[10..14].iter())
+        .fold(0.0_f32, |m, v| m.max(v.abs()));
+    assert!(slid > 1.0, "black's rods never slid: {slid} cm");
+}
+
+#[test]
 fn a_match_replays_from_its_seed() {
     let table = match_table(&FoosballConfig::default(), &MatchRules::default());
     let rules = MatchRules {
@@ -102,6 +143,10 @@ fn a_match_replays_from_its_seed() {
 fn bad_contestants_are_refused_by_name() {
     let e = "shoter".parse::<Contestant>().unwrap_err();
     assert!(e.contains("shoter") && e.contains("scripted policy"), "{e}");
+    assert_eq!(
+        "blocker".parse::<Contestant>(),
+        Ok(Contestant::Scripted(ScriptedPolicy::Blocker))
+    );
     let e = "results/figure2/sac-seed0@middle"
         .parse::<Contestant>()
         .unwrap_err();
