@@ -132,12 +132,35 @@ pub struct Protocol {
     /// fresh (fine-tuning, e.g. self-play from a trained agent). Absent: fresh networks.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub init_from: Option<String>,
-    /// A `trajectories.bin` (what `evaluate` writes, e.g. the planner's episodes) whose
-    /// transitions SAC and TD3 mix into their minibatches at `off_policy.demo_share`;
-    /// its episodes must start from seeds other than this run's evaluation and test
-    /// starts (`evaluate --seed` other than the run's). Absent: none.
+    /// A `trajectories.bin` (what `evaluate` writes, e.g. the planner's episodes), or a
+    /// list of them, whose transitions SAC and TD3 mix into their minibatches at
+    /// `off_policy.demo_share`; their episodes must start from seeds other than this
+    /// run's evaluation and test starts (`evaluate --seed` other than the run's).
+    /// Absent: none.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub demonstrations: Option<String>,
+    pub demonstrations: Option<DemonstrationFiles>,
+}
+
+/// `protocol.demonstrations`: one file (`"a.bin"`) or several (`["a.bin", "b.bin"]`),
+/// whose episodes fill one demonstration buffer in the order given (episodes recorded
+/// against different opponents, say).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum DemonstrationFiles {
+    /// One file.
+    One(String),
+    /// Several files.
+    Many(Vec<String>),
+}
+
+impl DemonstrationFiles {
+    /// The files, in order.
+    pub fn paths(&self) -> &[String] {
+        match self {
+            DemonstrationFiles::One(path) => std::slice::from_ref(path),
+            DemonstrationFiles::Many(paths) => paths,
+        }
+    }
 }
 
 impl Protocol {
@@ -616,6 +639,12 @@ impl RunConfig {
         self.algorithm.validate()?;
         let demo_share = self.algorithm.off_policy().and_then(|o| o.demo_share);
         match (&p.demonstrations, demo_share) {
+            (Some(files), _) if files.paths().is_empty() => {
+                return Err(ConfigError::new(
+                    "protocol.demonstrations",
+                    "an empty list: name at least one trajectories.bin, or leave the key out",
+                ));
+            }
             (Some(_), None) => {
                 return Err(ConfigError::new(
                     "protocol.demonstrations",

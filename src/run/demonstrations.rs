@@ -1,5 +1,6 @@
-//! Demonstrations a run learns from (`protocol.demonstrations`): a `trajectories.bin`
-//! that `evaluate` wrote (the planner's episodes on seeds of their own, say), checked
+//! Demonstrations a run learns from (`protocol.demonstrations`): one or several
+//! `trajectories.bin` that `evaluate` wrote (the planner's episodes on seeds of their
+//! own, against one opponent or another, say), checked
 //! against the run's held-out seeds, its world-frame states read in the run's ball frame
 //! (what the agent observes) and handed to the agent. They are read again on a
 //! resume (a checkpoint does not hold them).
@@ -14,67 +15,86 @@ use foosball_env::seeding::{EVAL_ENVS, TEST_ENVS, derive_seed};
 use std::collections::HashSet;
 use std::path::Path;
 
-/// Gives `agent` the episodes of `config.protocol.demonstrations` and returns how many
-/// transitions it kept (`None` when the key is unset). An episode shorter than the
-/// table's `max_episode_steps` ended in a terminal state; one that long was cut. A
-/// refusal names the key and the file: unreadable, an image observation (the file holds
-/// states), an episode played from one of the run's evaluation or test starts (they would
-/// leak into the held-out seeds), widths the agent does not take, or an algorithm
-/// without `off_policy.demo_share`.
+/// Gives `agent` the episodes of the files of `config.protocol.demonstrations`, in
+/// order, and returns how many transitions it kept (`None` when the key is unset). An
+/// episode shorter than the table's `max_episode_steps` ended in a terminal state; one
+/// that long was cut. A refusal names the key and the file: unreadable, an image
+/// observation (the files hold states), an episode played from one of the run's
+/// evaluation or test starts (they would leak into the held-out seeds), widths the agent
+/// does not take, or an algorithm without `off_policy.demo_share`.
 pub fn give_demonstrations(
     config: &RunConfig,
     agent: &mut dyn Agent,
 ) -> Result<Option<usize>, String> {
-    let Some(path) = &config.protocol.demonstrations else {
+    let Some(files) = &config.protocol.demonstrations else {
         return Ok(None);
     };
-    let refuse = |why: String| format!("protocol.demonstrations = \"{path}\": {why}");
+    let key = "protocol.demonstrations";
     if config.env.observation.kind != ObservationKind::State {
-        return Err(refuse(
-            "the file holds states; this run observes images".into(),
+        return Err(format!(
+            "{key}: the files hold states; this run observes images"
         ));
     }
-    let episodes = read_trajectories(Path::new(path)).map_err(refuse)?;
     let p = &config.protocol;
     let held_out: HashSet<u64> = (0..u64::from(p.eval_episodes))
         .map(|k| derive_seed(p.seed, EVAL_ENVS, k))
         .chain((0..u64::from(p.test_episodes)).map(|k| derive_seed(p.seed, TEST_ENVS, k)))
         .collect();
-    if let Some(e) = episodes.iter().find(|e| held_out.contains(&e.seed)) {
-        return Err(refuse(format!(
-            "an episode starts from seed {}, one of this run's evaluation or test starts \
-             (record demonstrations with another `evaluate --seed` than the run's)",
-            e.seed
-        )));
-    }
     let limit = config.env.max_episode_steps as usize;
     let frame = config.env.ball_frame;
-    let mut seen = Vec::with_capacity(episodes.len());
-    for (k, e) in episodes.iter().enumerate() {
-        let t = &e.trajectory;
-        if t.obs.len() != t.rewards.len() * OBS_DIM {
-            return Err(refuse(format!(
-                "episode {k} holds {} state values for {} steps, not {OBS_DIM} per step",
-                t.obs.len(),
-                t.rewards.len()
-            )));
+    // Per episode: its states in the run's ball frame, its actions and rewards.
+    let mut episodes = Vec::new();
+    for path in files.paths() {
+        let refuse = |why: String| format!("{key} = \"{path}\": {why}");
+        for (k, e) in read_trajectories(Path::new(path))
+            .map_err(refuse)?
+            .into_iter()
+            .enumerate()
+        {
+            if held_out.contains(&e.seed) {
+                return Err(refuse(format!(
+                    "an episode starts from seed {}, one of this run's evaluation or test \
+                     starts (record demonstrations with another `evaluate --seed` than the \
+                     run's)",
+                    e.seed
+                )));
+            }
+            let t = e.trajectory;
+            if t.obs.len() != t.rewards.len() * OBS_DIM {
+                return Err(refuse(format!(
+                    "episode {k} holds {} state values for {} steps, not {OBS_DIM} per step",
+                    t.obs.len(),
+                    t.rewards.len()
+                )));
+            }
+            let rows: Vec<f32> = t
+                .obs
+                .chunks_exact(OBS_DIM)
+                .flat_map(|s| in_ball_frame(s.try_into().expect("a full row"), frame))
+                .collect();
+            episodes.push((rows, t.actions, t.rewards));
         }
-        let rows: Vec<f32> = t
-            .obs
-            .chunks_exact(OBS_DIM)
-            .flat_map(|s| in_ball_frame(s.try_into().expect("a full row"), frame))
-            .collect();
-        seen.push(rows);
     }
     let demos: Vec<Demonstration<'_>> = episodes
         .iter()
-        .zip(&seen)
-        .map(|(e, obs)| Demonstration {
+        .map(|(obs, actions, rewards)| Demonstration {
             obs,
-            actions: &e.trajectory.actions,
-            rewards: &e.trajectory.rewards,
-            terminated: e.trajectory.rewards.len() < limit,
+            actions,
+            rewards,
+            terminated: rewards.len() < limit,
         })
         .collect();
-    agent.set_demonstrations(&demos).map(Some).map_err(refuse)
+    agent
+        .set_demonstrations(&demos)
+        .map(Some)
+        .map_err(|why| format!("{key} = {}: {why}", names(files.paths())))
+}
+
+/// The files as the config names them: `"a"` or `["a", "b"]`.
+fn names(paths: &[String]) -> String {
+    let quoted: Vec<String> = paths.iter().map(|p| format!("\"{p}\"")).collect();
+    match quoted.as_slice() {
+        [one] => one.clone(),
+        _ => format!("[{}]", quoted.join(", ")),
+    }
 }

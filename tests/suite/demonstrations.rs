@@ -1,7 +1,8 @@
 //! Demonstrations (`protocol.demonstrations` + `off_policy.demo_share`): a run learns
 //! from a `trajectories.bin` that `evaluate` recorded, the same numbers twice and other
-//! numbers than without them; files recorded on the run's own evaluation or test starts,
-//! an image observation, a missing file and half-set keys are refused by key.
+//! numbers than without them, several files as one buffer; files recorded on the run's
+//! own evaluation or test starts, an image observation, a missing file, an empty list and
+//! half-set keys are refused by key.
 
 use crate::common;
 
@@ -56,6 +57,46 @@ fn a_run_learns_from_recorded_episodes_reproducibly() {
     assert_ne!(first, alone, "the demonstrations changed nothing");
     let rl_only = run(&dir, "rl-only", &with_demos(&file, "")).unwrap();
     assert_ne!(first, rl_only, "behaviour cloning changed nothing");
+}
+
+#[test]
+fn several_files_fill_one_buffer_in_order() {
+    let dir = scratch("demonstrations-files");
+    let (a, b) = (record(&dir, 1000), record(&dir, 2000));
+    let list = |files: &[&Path]| {
+        let names: Vec<String> = files
+            .iter()
+            .map(|f| format!("\"{}\"", f.display()))
+            .collect();
+        with_demos(a.as_path(), "").replace(
+            &format!("demonstrations = \"{}\"", a.display()),
+            &format!("demonstrations = [{}]", names.join(", ")),
+        )
+    };
+    // A list of one is the file itself.
+    assert_eq!(
+        run(&dir, "one", &with_demos(&a, "")).unwrap(),
+        run(&dir, "list-of-one", &list(&[&a])).unwrap()
+    );
+    let both = run(&dir, "both", &list(&[&a, &b])).unwrap();
+    assert_eq!(both, run(&dir, "both-again", &list(&[&a, &b])).unwrap());
+    assert_ne!(
+        both,
+        run(&dir, "a-only", &list(&[&a])).unwrap(),
+        "file b changed nothing"
+    );
+    // A bad file in a list is named; an empty list is refused.
+    let own = record(&dir, 3);
+    let err = run(&dir, "with-own", &list(&[&a, &own])).unwrap_err();
+    assert!(
+        err.contains("protocol.demonstrations") && err.contains("shooter-3"),
+        "{err}"
+    );
+    let err = run(&dir, "empty", &list(&[])).unwrap_err();
+    assert!(
+        err.contains("protocol.demonstrations") && err.contains("empty list"),
+        "{err}"
+    );
 }
 
 #[test]
