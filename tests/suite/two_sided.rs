@@ -31,8 +31,19 @@ fn states(
         Contestant::Scripted(black).policy(&table, 1).unwrap(),
         table.ball_frame,
     );
-    let mut act = Contestant::Scripted(yellow).policy(&table, 1).unwrap();
-    let mut env = FoosballEnv::with_opponent(table, Box::new(black)).unwrap();
+    let env = FoosballEnv::with_opponent(table.clone(), Box::new(black)).unwrap();
+    trace(env, &table, yellow, steps)
+}
+
+/// The world states of `steps` steps of `env` (reset with seed 3), yellow played by
+/// `yellow` on `table`.
+fn trace(
+    mut env: FoosballEnv,
+    table: &FoosballConfig,
+    yellow: ScriptedPolicy,
+    steps: usize,
+) -> Vec<[f32; 38]> {
+    let mut act = Contestant::Scripted(yellow).policy(table, 1).unwrap();
     let mut obs = env.reset(Some(3));
     let mut out = vec![*env.state().unwrap()];
     for _ in 0..steps {
@@ -91,20 +102,8 @@ fn the_blocker_contestant_is_the_tables_scripted_black() {
     let contestant = states(ScriptedPolicy::Shooter, ScriptedPolicy::Blocker, x, y, 400);
     let mut table = served_at(x, y);
     table.opponent = OpponentKind::Scripted;
-    let mut act = Contestant::Scripted(ScriptedPolicy::Shooter)
-        .policy(&table, 1)
-        .unwrap();
-    let mut env = FoosballEnv::new(table).unwrap();
-    let mut obs = env.reset(Some(3));
-    let mut built_in = vec![*env.state().unwrap()];
-    for _ in 0..400 {
-        let (next, t) = env.step(&act(&obs)).unwrap();
-        built_in.push(*env.state().unwrap());
-        obs = next;
-        if t.done() {
-            break;
-        }
-    }
+    let env = FoosballEnv::new(table.clone()).unwrap();
+    let built_in = trace(env, &table, ScriptedPolicy::Shooter, 400);
     assert_eq!(contestant.len(), built_in.len());
     for (k, (a, b)) in contestant.iter().zip(&built_in).enumerate() {
         for (i, (a, b)) in a.iter().zip(b).enumerate() {
