@@ -218,6 +218,11 @@ pub struct SelfPlayConfig {
     /// black's attacks play out; true keeps the paper's episode, where an attack of
     /// black's ends the episode within `rules.no_progress_steps`).
     pub no_progress_end: bool,
+    /// Share of training episodes served on black's side (the table's start turned 180
+    /// degrees, `env.start.black_share` of the learner's table): black's kick-off, as
+    /// the learner meets it when it plays black in a match. Default 0 (every serve
+    /// the learner's, as in the paper).
+    pub black_serve_share: f32,
 }
 
 impl Default for SelfPlayConfig {
@@ -236,6 +241,7 @@ impl Default for SelfPlayConfig {
             pfsp_power: 2.0,
             conceded_penalty: 1000.0,
             no_progress_end: false,
+            black_serve_share: 0.0,
         }
     }
 }
@@ -258,6 +264,12 @@ impl SelfPlayConfig {
             if !(0.0..=1.0).contains(&v) {
                 return Err(err(key, format!("must be in [0, 1], got {v}")));
             }
+        }
+        if !(0.0..=1.0).contains(&self.black_serve_share) {
+            return Err(err(
+                "black_serve_share",
+                format!("must be in [0, 1], got {}", self.black_serve_share),
+            ));
         }
         if self.latest_share + self.anchor_share > 1.0 {
             return Err(err(

@@ -12,8 +12,9 @@
 //!   black's goal line mirrored, as in matches), `conceded_penalty` lost per step while
 //!   the ball lies in yellow's goal, and no "no progress" end unless `no_progress_end`
 //!   (black attacks the other way; with it, an episode ends 15 steps into any attack of
-//!   black's and the learner never sees a goal against it); everything else (reward,
-//!   other ends) as configured.
+//!   black's and the learner never sees a goal against it), a `black_serve_share` of the
+//!   serves turned 180 degrees onto black's side (black's kick-off, which the learner meets
+//!   as black in every other match); everything else (reward, other ends) as configured.
 //!   Evaluations and the test still play `env.opponent`, so curves stay comparable.
 //! - Resumable: the checkpoint holds the snapshot list and the records; reproducible:
 //!   the draws come from each environment's own stream and the pool changes only between
@@ -71,13 +72,15 @@ pub struct SelfPlay {
 }
 
 /// `env` as the learner plays it in self-play (module docs): black's goals count against
-/// it; no "no progress" end unless `sp.no_progress_end`.
+/// it; no "no progress" end unless `sp.no_progress_end`; a `sp.black_serve_share` of the
+/// serves on black's side.
 pub fn self_play_table(env: &FoosballConfig, sp: &SelfPlayConfig) -> FoosballConfig {
     let mut t = symmetric_goals(env);
     t.reward.conceded_penalty = sp.conceded_penalty;
     if !sp.no_progress_end {
         t.rules.no_progress_steps = u32::MAX;
     }
+    t.start.black_share = sp.black_serve_share;
     t
 }
 

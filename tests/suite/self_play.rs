@@ -146,6 +146,10 @@ fn bad_self_play_settings_are_refused_by_key() {
         ),
         ("[self_play]\npfsp_power = -1\n", "self_play.pfsp_power"),
         (
+            "[self_play]\nblack_serve_share = 1.5\n",
+            "self_play.black_serve_share",
+        ),
+        (
             "[self_play]\nanchors = [\"goalie\"]\n",
             "tiny.toml:19: unknown variant `goalie`",
         ),
@@ -216,7 +220,7 @@ fn a_run_starts_from_saved_networks_and_refuses_ones_that_do_not_fit() {
 }
 
 /// The learner's table: black's goals count (the own-goal line mirrored), the conceded
-/// penalty as configured, the "no progress" end off unless kept.
+/// penalty as configured, the "no progress" end off unless kept, black's serves as set.
 #[test]
 fn the_self_play_table_counts_black_s_goals_and_drops_no_progress_unless_kept() {
     use foosball_rl::config::SelfPlayConfig;
@@ -238,4 +242,46 @@ fn the_self_play_table_counts_black_s_goals_and_drops_no_progress_unless_kept() 
         },
     );
     assert_eq!(kept.rules.no_progress_steps, c.env.rules.no_progress_steps);
+    assert_eq!(t.start.black_share, 0.0);
+    let served = self_play_table(
+        &c.env,
+        &SelfPlayConfig {
+            black_serve_share: 0.25,
+            ..SelfPlayConfig::default()
+        },
+    );
+    assert_eq!(served.start.black_share, 0.25);
+}
+
+/// `start.black_share`: a served episode's ball lies at the mirror image (world (x, y) ->
+/// (-x, -y)) of the same seed's serve without it; a share of 0.3 serves about 30 % of 400
+/// episodes on black's side; a share outside [0, 1] is refused by key.
+#[test]
+fn black_s_serve_mirrors_the_table_s_start_in_its_share_of_episodes() {
+    use foosball_rl::env::{Env, FoosballConfig, FoosballEnv, Preset};
+    let start = |share: f32, seed: u64| {
+        let mut c = FoosballConfig::preset(Preset::Reference);
+        c.start.black_share = share;
+        let mut env = FoosballEnv::new(c).unwrap();
+        let mut obs = vec![0.0; env.obs_dim()];
+        env.reset_into(Some(seed), &mut obs);
+        env.table().unwrap().ball_position()
+    };
+    for seed in 0..5 {
+        let [x, y, z] = start(0.0, seed);
+        assert!(
+            y < 0.0,
+            "the paper's serve is on yellow's side, got y = {y}"
+        );
+        assert_eq!(start(1.0, seed), [-x, -y, z]);
+    }
+    let black = (0..400).filter(|&s| start(0.3, s)[1] > 0.0).count();
+    assert!(
+        (95..=145).contains(&black),
+        "{black} of 400 served on black's side"
+    );
+    let mut c = FoosballConfig::preset(Preset::Reference);
+    c.start.black_share = -0.1;
+    let err = FoosballEnv::new(c).err().expect("refused").to_string();
+    assert!(err.contains("start.black_share"), "{err}");
 }

@@ -517,7 +517,8 @@ pub enum SpinRule {
 }
 
 /// Ball start: at rest on the playfield at x ~ N(x_mean, x_std²), y ~ N(y_mean, y_std²),
-/// means in the env's `ball_frame` (cm).
+/// means in the env's `ball_frame` (cm); in a `black_share` of the episodes the drawn
+/// point is turned 180 degrees about the playfield's centre (black's kick-off).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct StartConfig {
@@ -525,6 +526,10 @@ pub struct StartConfig {
     pub x_std: f32,
     pub y_mean: f32,
     pub y_std: f32,
+    /// Share of episodes, in [0, 1], served at the mirror image of the drawn point
+    /// (world (x, y) -> (-x, -y)): the ball starts on black's side, black to play it.
+    /// Default 0 (the paper's serve, and no extra draw from the episode's stream).
+    pub black_share: f32,
 }
 
 impl Default for StartConfig {
@@ -534,6 +539,7 @@ impl Default for StartConfig {
             x_std: 0.5,
             y_mean: -0.1,
             y_std: 0.5,
+            black_share: 0.0,
         }
     }
 }
@@ -804,6 +810,12 @@ impl FoosballConfig {
         finite("start.y_mean", self.start.y_mean)?;
         non_negative("start.x_std", self.start.x_std)?;
         non_negative("start.y_std", self.start.y_std)?;
+        if !(0.0..=1.0).contains(&self.start.black_share) {
+            return Err(ConfigError::new(
+                "start.black_share",
+                format!("must be a share in [0, 1], got {}", self.start.black_share),
+            ));
+        }
         positive("ball.mass", self.ball.mass)?;
         non_negative("ball.friction", self.ball.friction)?;
         non_negative("ball.restitution", self.ball.restitution)?;

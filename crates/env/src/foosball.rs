@@ -418,6 +418,8 @@ impl Env for FoosballEnv {
         let limit_y = geometry::FIELD_HALF_LENGTH - geometry::BALL_RADIUS;
         let x = (x_mean + s.x_std * gaussian(&mut self.rng)).clamp(-limit_x, limit_x);
         let y = (y_mean + s.y_std * gaussian(&mut self.rng)).clamp(-limit_y, limit_y);
+        let black_serves = s.black_share > 0.0 && self.rng.random::<f32>() < s.black_share;
+        let [x, y] = if black_serves { [-x, -y] } else { [x, y] };
         let table = Table::new(&draw.physics, [x, y]);
         let state = Self::observe(&table);
         self.table = Some(table);
