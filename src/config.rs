@@ -260,16 +260,11 @@ impl SelfPlayConfig {
         for (key, v) in [
             ("latest_share", self.latest_share),
             ("anchor_share", self.anchor_share),
+            ("black_serve_share", f64::from(self.black_serve_share)),
         ] {
             if !(0.0..=1.0).contains(&v) {
                 return Err(err(key, format!("must be in [0, 1], got {v}")));
             }
-        }
-        if !(0.0..=1.0).contains(&self.black_serve_share) {
-            return Err(err(
-                "black_serve_share",
-                format!("must be in [0, 1], got {}", self.black_serve_share),
-            ));
         }
         if self.latest_share + self.anchor_share > 1.0 {
             return Err(err(
