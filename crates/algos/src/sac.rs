@@ -3,7 +3,8 @@
 //! Per gradient step, on a minibatch `(s, a, r, s', d)`:
 //! 1. `a~, log pi(a~|s)` from the current actor (reparameterised);
 //! 2. temperature: `L(log alpha) = -mean(log alpha * (log pi(a~|s) + H_target))`,
-//!    `H_target = -dim(A)`; `alpha` used below is the value *before* this step;
+//!    `H_target = -dim(A)`; `alpha` used below is the value *before* this step; with
+//!    `tune_alpha = false` no step: `alpha` stays `init_alpha` (SB3's `ent_coef = float`);
 //! 3. critics: `y = r + gamma (1 - d) (min(Q1', Q2')(s', a') - alpha log pi(a'|s'))`
 //!    (`gamma^n` with `n_step` returns),
 //!    `a' ~ pi(.|s')`; `L = 0.5 * (MSE(Q1(s, a), y) + MSE(Q2(s, a), y))`;
@@ -41,6 +42,9 @@ pub struct SacConfig {
     pub off_policy: OffPolicyConfig,
     /// Initial temperature `alpha` (SB3's `"auto_1.0"`).
     pub init_alpha: f32,
+    /// Whether `alpha` is learned towards `target_entropy` (default true, SB3's `"auto"`);
+    /// false holds it at `init_alpha` (SB3's `ent_coef = init_alpha`).
+    pub tune_alpha: bool,
     /// Target entropy; `None` means `-dim(A)`.
     pub target_entropy: Option<f32>,
     /// Gradient steps between target updates.
@@ -65,6 +69,7 @@ impl Default for SacConfig {
             gamma: DEFAULT_GAMMA,
             off_policy: OffPolicyConfig::default(),
             init_alpha: 1.0,
+            tune_alpha: true,
             target_entropy: None,
             target_update_interval: 1,
             actor_average_tau: None,
@@ -299,9 +304,11 @@ impl OffPolicyLearner for Sac {
             self.target_entropy(),
         );
         let alpha_loss_value = mean(alpha_loss.clone().inner());
-        let mut grads = alpha_loss.backward();
-        self.temperature_optim
-            .step_in_place(&mut self.temperature, &mut grads, lr);
+        if self.config.tune_alpha {
+            let mut grads = alpha_loss.backward();
+            self.temperature_optim
+                .step_in_place(&mut self.temperature, &mut grads, lr);
+        }
 
         // 3. Critics.
         let next_obs = matrix(&batch.next_obs, o, &plain);
@@ -463,18 +470,14 @@ mod tests {
         assert!((temperature_gradient(&[2.0, 2.0], -1.0) + 1.0).abs() < 1e-6);
     }
 
-    /// A 3 -> 2 SAC agent with 8-wide networks after `steps` env steps of replay and
-    /// updates, and its deterministic actions on a fixed batch: the agent's and the live
-    /// actor's.
-    fn averaged(tau: Option<f32>, steps: usize) -> (Vec<f32>, Vec<f32>) {
+    /// A 3 -> 2 SAC agent with 8-wide networks (`config` otherwise) after `steps` env
+    /// steps of replay and updates.
+    fn trained(mut c: SacConfig, steps: usize) -> SacAgent {
         use crate::agent::{Agent, Experience};
-        let mut c = SacConfig::default();
         c.net.hidden = vec![8];
         c.off_policy.learning_starts = 0;
         c.off_policy.batch_size = 4;
-        c.actor_average_tau = tau;
-        let device = device();
-        let mut agent = Sac::agent(3, 2, c, 5, &device);
+        let mut agent = Sac::agent(3, 2, c, 5, &device());
         for k in 0..steps {
             let obs = [k as f32 * 0.1, 0.5, -0.2];
             agent.observe(&Experience {
@@ -488,6 +491,33 @@ mod tests {
             });
             agent.update(1.0);
         }
+        agent
+    }
+
+    #[test]
+    fn a_fixed_temperature_stays_at_init_alpha_and_a_tuned_one_moves() {
+        let alpha = |tune_alpha| {
+            let c = SacConfig {
+                init_alpha: 0.3,
+                tune_alpha,
+                ..SacConfig::default()
+            };
+            trained(c, 6).learner().alpha()
+        };
+        assert!((alpha(false) - 0.3).abs() < 1e-6, "{}", alpha(false));
+        assert!((alpha(true) - 0.3).abs() > 1e-4, "{}", alpha(true));
+    }
+
+    /// The deterministic actions of [`trained`] with `actor_average_tau = tau` on a fixed
+    /// batch: the agent's and the live actor's.
+    fn averaged(tau: Option<f32>, steps: usize) -> (Vec<f32>, Vec<f32>) {
+        use crate::agent::Agent;
+        let c = SacConfig {
+            actor_average_tau: tau,
+            ..SacConfig::default()
+        };
+        let mut agent = trained(c, steps);
+        let device = device();
         let batch = [0.2, -0.1, 0.4, 0.0, 0.3, -0.5];
         let live = host(agent.learner().actor().valid().deterministic(matrix(
             &batch,
