@@ -132,6 +132,14 @@ pub struct Protocol {
     /// fresh (fine-tuning, e.g. self-play from a trained agent). Absent: fresh networks.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub init_from: Option<String>,
+    /// With `init_from`: zero every loaded network's input weights from black's 16 rod
+    /// values ([`foosball_env::layout::black_rod_inputs`]), so the networks start blind to
+    /// black and learn to read it again. For networks trained against the static black,
+    /// whose rods barely move: their weights on those inputs were never fitted and answer
+    /// a moving black with values far outside anything trained (docs/league.md). Default
+    /// false (the networks as saved); refused when nothing is loaded.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub init_blind_to_black: bool,
     /// A `trajectories.bin` (what `evaluate` writes, e.g. the planner's episodes), or a
     /// list of them, whose transitions SAC and TD3 mix into their minibatches at
     /// `off_policy.demo_share`; their episodes must start from seeds other than this
@@ -186,6 +194,7 @@ impl Default for Protocol {
             threads: 0,
             backend: None,
             init_from: None,
+            init_blind_to_black: false,
             demonstrations: None,
         }
     }

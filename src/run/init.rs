@@ -1,9 +1,11 @@
 //! Where a run's networks start: fresh from the learner stream, or a run's saved networks
-//! (`protocol.init_from = "DIR[@best|@last]"`) for fine-tuning.
+//! (`protocol.init_from = "DIR[@best|@last]"`) for fine-tuning, optionally blind to
+//! black's rods (`protocol.init_blind_to_black`).
 
 use crate::config::{RunConfig, TestActions};
 use crate::play::contestant::{Contestant, fits};
 use foosball_algos::Agent;
+use foosball_env::layout::black_rod_inputs;
 
 /// Loads the networks `config.protocol.init_from` names into `agent` (nothing when
 /// unset). The saved run must have been trained with the same algorithm, hidden widths,
@@ -11,7 +13,12 @@ use foosball_algos::Agent;
 /// differs.
 pub fn init_networks(config: &RunConfig, agent: &mut dyn Agent) -> Result<(), String> {
     let Some(spec) = &config.protocol.init_from else {
-        return Ok(());
+        return match config.protocol.init_blind_to_black {
+            true => Err("protocol.init_blind_to_black: it blinds the networks that \
+                 protocol.init_from (or --init-from) loads, and none is set"
+                .into()),
+            false => Ok(()),
+        };
     };
     let refuse = |why: String| format!("protocol.init_from = \"{spec}\": {why}");
     let (dir, checkpoint) = match spec.parse::<Contestant>().map_err(refuse)? {
@@ -43,5 +50,12 @@ pub fn init_networks(config: &RunConfig, agent: &mut dyn Agent) -> Result<(), St
     fits(&saved.env, &config.env).map_err(refuse)?;
     agent
         .load(&dir.join(checkpoint.name()))
-        .map_err(|e| refuse(e.to_string()))
+        .map_err(|e| refuse(e.to_string()))?;
+    if config.protocol.init_blind_to_black {
+        let black: Vec<usize> = black_rod_inputs().collect();
+        agent
+            .zero_obs_inputs(&black)
+            .map_err(|e| format!("protocol.init_blind_to_black: {e}"))?;
+    }
+    Ok(())
 }

@@ -285,3 +285,51 @@ fn black_s_serve_mirrors_the_table_s_start_in_its_share_of_episodes() {
     let err = FoosballEnv::new(c).err().expect("refused").to_string();
     assert!(err.contains("start.black_share"), "{err}");
 }
+
+/// `protocol.init_blind_to_black`: the loaded networks ignore black's rods, act as the
+/// saved ones where black's rods are at rest, and the key is refused without `init_from`.
+#[test]
+fn networks_loaded_blind_to_black_ignore_black_s_rods() {
+    use foosball_env::layout::{OBS_DIM, black_rod_inputs};
+    use foosball_rl::agents::{build_agent, device, load_agent};
+    use foosball_rl::run::init::init_networks;
+    let dir = scratch("init-blind");
+    let saved = dir.join("saved");
+    std::fs::create_dir_all(&saved).unwrap();
+    let text = tiny_config_text("sac", 1, 200);
+    let c = RunConfig::from_toml(&text, Path::new("tiny.toml")).unwrap();
+    train(&c, &saved, Start::Fresh, |_| {}).unwrap();
+
+    let at_rest: Vec<f32> = (0..OBS_DIM).map(|i| 0.1 * i as f32 - 1.0).collect();
+    let mut at_rest = at_rest;
+    black_rod_inputs().for_each(|i| at_rest[i] = 0.0);
+    let mut moving = at_rest.clone();
+    black_rod_inputs().for_each(|i| moving[i] = 40.0 - 3.0 * i as f32);
+    let act = |agent: &mut dyn foosball_algos::Agent, obs: &[f32]| {
+        agent.act(obs, foosball_algos::ActMode::Deterministic)
+    };
+
+    let mut as_saved = load_agent(&c, &saved.join("last")).unwrap();
+    let mut tuned = c.clone();
+    tuned.protocol.init_from = Some(format!("{}@last", saved.display()));
+    tuned.protocol.init_blind_to_black = true;
+    let mut blind = build_agent(&tuned, &device(&tuned).unwrap());
+    init_networks(&tuned, blind.as_mut()).unwrap();
+    assert_ne!(
+        act(as_saved.as_mut(), &at_rest),
+        act(as_saved.as_mut(), &moving)
+    );
+    let rest = act(blind.as_mut(), &at_rest);
+    assert_eq!(rest, act(as_saved.as_mut(), &at_rest));
+    assert_eq!(rest, act(blind.as_mut(), &moving));
+
+    let mut unset = tuned.clone();
+    unset.protocol.init_from = None;
+    let run = dir.join("refused");
+    std::fs::create_dir_all(&run).unwrap();
+    let err = train(&unset, &run, Start::Fresh, |_| {})
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("protocol.init_blind_to_black"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -129,6 +129,10 @@ pub trait Agent {
     fn save(&self, dir: &Path) -> Result<(), AgentError>;
     /// Reads the networks written by `save` from `dir`.
     fn load(&mut self, dir: &Path) -> Result<(), AgentError>;
+    /// Zeroes every network's input-layer weights from the observation values at `inputs`
+    /// (targets and averages included), so the networks start blind to those values; a
+    /// vector observation only.
+    fn zero_obs_inputs(&mut self, inputs: &[usize]) -> Result<(), String>;
     /// Adds everything but the networks that training needs to go on exactly where it
     /// stands: optimiser moments, replay or rollout buffer, RNG position, counters.
     fn save_state<'a>(&'a self, snap: &mut Snapshot<'a>);

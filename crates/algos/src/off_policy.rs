@@ -28,6 +28,8 @@ pub trait OffPolicyLearner {
     fn save(&self, dir: &Path) -> Result<(), AgentError>;
     /// Reads the networks from `dir`.
     fn load(&mut self, dir: &Path) -> Result<(), AgentError>;
+    /// See [`Agent::zero_obs_inputs`].
+    fn zero_obs_inputs(&mut self, inputs: &[usize]) -> Result<(), String>;
     /// Adds the optimiser states and counters (see [`Agent::save_state`]).
     fn save_state<'a>(&'a self, snap: &mut Snapshot<'a>);
     /// Restores what `save_state` stored.
@@ -223,6 +225,10 @@ impl<L: OffPolicyLearner> Agent for OffPolicy<L> {
         self.learner.load(dir)
     }
 
+    fn zero_obs_inputs(&mut self, inputs: &[usize]) -> Result<(), String> {
+        self.learner.zero_obs_inputs(inputs)
+    }
+
     fn save_state<'a>(&'a self, snap: &mut Snapshot<'a>) {
         snap.put_rng("agent.rng", &self.rng);
         snap.put_u64("agent.env_steps", self.env_steps);
@@ -341,6 +347,9 @@ mod tests {
             Ok(())
         }
         fn load(&mut self, _: &Path) -> Result<(), AgentError> {
+            Ok(())
+        }
+        fn zero_obs_inputs(&mut self, _: &[usize]) -> Result<(), String> {
             Ok(())
         }
         fn save_state<'a>(&'a self, _: &mut Snapshot<'a>) {}

@@ -478,6 +478,11 @@ impl Agent for Ppo {
         Ok(())
     }
 
+    fn zero_obs_inputs(&mut self, inputs: &[usize]) -> Result<(), String> {
+        self.model.policy.zero_obs_inputs(inputs)?;
+        self.model.value.zero_obs_inputs(inputs)
+    }
+
     fn save_state<'a>(&'a self, snap: &mut Snapshot<'a>) {
         self.optim.save_state(snap, "ppo.adam");
         snap.put_rng("agent.rng", &self.rng);

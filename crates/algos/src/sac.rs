@@ -398,6 +398,15 @@ impl OffPolicyLearner for Sac {
         Ok(())
     }
 
+    fn zero_obs_inputs(&mut self, inputs: &[usize]) -> Result<(), String> {
+        self.actor.zero_obs_inputs(inputs)?;
+        if let Some(average) = &mut self.actor_average {
+            average.zero_obs_inputs(inputs)?;
+        }
+        self.critic.zero_obs_inputs(inputs)?;
+        self.critic_target.zero_obs_inputs(inputs)
+    }
+
     fn load(&mut self, dir: &Path) -> Result<(), AgentError> {
         self.actor = load_module(self.actor.clone(), &dir.join("actor.bpk"))?;
         self.critic = load_module(self.critic.clone(), &dir.join("critic.bpk"))?;

@@ -250,6 +250,13 @@ impl OffPolicyLearner for Td3 {
         Ok(())
     }
 
+    fn zero_obs_inputs(&mut self, inputs: &[usize]) -> Result<(), String> {
+        self.actor.zero_obs_inputs(inputs)?;
+        self.actor_target.zero_obs_inputs(inputs)?;
+        self.critic.zero_obs_inputs(inputs)?;
+        self.critic_target.zero_obs_inputs(inputs)
+    }
+
     fn load(&mut self, dir: &Path) -> Result<(), AgentError> {
         self.actor = load_module(self.actor.clone(), &dir.join("actor.bpk"))?;
         self.actor_target = load_module(self.actor_target.clone(), &dir.join("actor_target.bpk"))?;

@@ -51,6 +51,14 @@ pub const fn action_turn(rod: usize) -> usize {
     2 * rod + 1
 }
 
+/// Indices of black's 16 rod values in the observation (slides, slide velocities, angles,
+/// angular velocities of black's four rods), ascending.
+pub fn black_rod_inputs() -> impl Iterator<Item = usize> {
+    [ROD_SLIDE, ROD_SLIDE_VEL, ROD_ANGLE, ROD_ANGLE_VEL]
+        .into_iter()
+        .flat_map(|r| r.start + 4..r.end)
+}
+
 /// The observation as black sees it: the table turned 180° about z (x -> -x, y -> -y for
 /// the ball) and the two teams' rod blocks swapped, so black's rods come first. Rod
 /// coordinates are already in each rod's own frame and stay as they are. A policy trained
@@ -73,6 +81,20 @@ pub fn mirror_observation(obs: &[f32; OBS_DIM]) -> [f32; OBS_DIM] {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn black_rod_inputs_are_the_second_half_of_each_rod_group() {
+        let inputs: Vec<usize> = black_rod_inputs().collect();
+        assert_eq!(inputs.len(), 16);
+        assert_eq!(&inputs[..4], &[10, 11, 12, 13]);
+        assert_eq!(&inputs[12..], &[34, 35, 36, 37]);
+        // Mirroring moves exactly these values into yellow's place.
+        let obs: [f32; OBS_DIM] = std::array::from_fn(|i| i as f32);
+        let mirrored = mirror_observation(&obs);
+        for (k, i) in inputs.iter().enumerate() {
+            assert_eq!(mirrored[i - 4], obs[*i], "input {k}");
+        }
+    }
 
     #[test]
     fn groups_tile_the_observation_without_gaps() {

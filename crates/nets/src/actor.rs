@@ -60,6 +60,13 @@ impl SquashedGaussianActor {
         (tanh(u), log_prob)
     }
 
+    /// Zeroes the input weights from the observation values at `inputs` ([`Mlp::zero_inputs`]);
+    /// a vector observation only.
+    pub fn zero_obs_inputs(&mut self, inputs: &[usize]) -> Result<(), String> {
+        self.encoder.per_value_inputs()?;
+        self.net.zero_inputs(inputs)
+    }
+
     /// The deterministic action `tanh(mean)`, `[batch, action_dim]`.
     pub fn deterministic(&self, obs: Tensor<2>) -> Tensor<2> {
         tanh(self.distribution(obs).0)
@@ -79,6 +86,13 @@ impl DeterministicActor {
         let (encoder, features) = init.encoder();
         let net = init.mlp(features, init.action_dim);
         Self { encoder, net }
+    }
+
+    /// Zeroes the input weights from the observation values at `inputs` ([`Mlp::zero_inputs`]);
+    /// a vector observation only.
+    pub fn zero_obs_inputs(&mut self, inputs: &[usize]) -> Result<(), String> {
+        self.encoder.per_value_inputs()?;
+        self.net.zero_inputs(inputs)
     }
 
     /// Actions in `[-1, 1]`, `[batch, action_dim]`.
@@ -108,6 +122,13 @@ impl GaussianPolicy {
             net,
             log_std,
         }
+    }
+
+    /// Zeroes the input weights from the observation values at `inputs` ([`Mlp::zero_inputs`]);
+    /// a vector observation only.
+    pub fn zero_obs_inputs(&mut self, inputs: &[usize]) -> Result<(), String> {
+        self.encoder.per_value_inputs()?;
+        self.net.zero_inputs(inputs)
     }
 
     /// Mean and log standard deviation, each `[batch, action_dim]`.

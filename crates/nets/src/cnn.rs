@@ -256,6 +256,16 @@ impl Encoder {
         self.cnn.as_ref().map_or(shape.dim(), Cnn::features)
     }
 
+    /// Refuses an image observation, whose values have no input weights of their own.
+    pub fn per_value_inputs(&self) -> Result<(), String> {
+        match self.cnn {
+            Some(_) => {
+                Err("an image observation's pixels have no input weights of their own".into())
+            }
+            None => Ok(()),
+        }
+    }
+
     /// `[batch, obs_dim] -> [batch, output_dim]`.
     pub fn forward(&self, obs: Tensor<2>) -> Tensor<2> {
         match &self.cnn {

@@ -60,6 +60,14 @@ impl TwinQ {
         Self { encoder, q1, q2 }
     }
 
+    /// Zeroes the input weights from the observation values at `inputs` ([`Mlp::zero_inputs`]);
+    /// a vector observation only.
+    pub fn zero_obs_inputs(&mut self, inputs: &[usize]) -> Result<(), String> {
+        self.encoder.per_value_inputs()?;
+        self.q1.net.zero_inputs(inputs)?;
+        self.q2.net.zero_inputs(inputs)
+    }
+
     /// Both values, each `[batch]`.
     pub fn forward(&self, obs: Tensor<2>, actions: Tensor<2>) -> (Tensor<1>, Tensor<1>) {
         // One input for both networks: one concatenation, and its gradient reaches
@@ -95,6 +103,13 @@ impl ValueCritic {
         let (encoder, features) = init.encoder();
         let net = init.mlp(features, 1);
         Self { encoder, net }
+    }
+
+    /// Zeroes the input weights from the observation values at `inputs` ([`Mlp::zero_inputs`]);
+    /// a vector observation only.
+    pub fn zero_obs_inputs(&mut self, inputs: &[usize]) -> Result<(), String> {
+        self.encoder.per_value_inputs()?;
+        self.net.zero_inputs(inputs)
     }
 
     /// Values `[batch]`.

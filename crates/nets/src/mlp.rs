@@ -1,10 +1,11 @@
 //! The multilayer perceptron every actor and critic is built from.
 
 use crate::init::linear;
+use crate::params::{map_flat_params, take_module};
 use burn::module::Module;
 use burn::nn::{LayerNorm, LayerNormConfig, Linear};
 use burn::tensor::activation::{relu, tanh};
-use burn::tensor::{Device, Tensor};
+use burn::tensor::{Device, Tensor, TensorData};
 use rand::Rng;
 
 /// The non-linearity between hidden layers.
@@ -102,6 +103,29 @@ impl Mlp {
         })
     }
 
+    /// Sets the input layer's weights from the inputs at `inputs` (indices into the
+    /// `[batch, input]` columns) to zero: those inputs no longer reach the output until
+    /// training moves the weights again. An index past the input width is refused.
+    pub fn zero_inputs(&mut self, inputs: &[usize]) -> Result<(), String> {
+        let [width, units] = self.layers[0].weight.dims();
+        if let Some(bad) = inputs.iter().find(|&&i| i >= width) {
+            return Err(format!("input {bad} of a {width}-wide input layer"));
+        }
+        let mut keep = vec![1.0_f32; width];
+        inputs.iter().for_each(|&i| keep[i] = 0.0);
+        let first = take_module(&mut self.layers[0]);
+        // The weight, `[input, units]`, comes first in the layer's parameters; the bias stays.
+        self.layers[0] = map_flat_params(first, |k, w| match k {
+            0 => {
+                let mask =
+                    Tensor::<2>::from_data(TensorData::new(keep.clone(), [width, 1]), &w.device());
+                (w.reshape([width, units]) * mask).reshape([width * units])
+            }
+            _ => w,
+        });
+        Ok(())
+    }
+
     /// Width of the input layer.
     pub fn input_dim(&self) -> usize {
         self.layers[0].weight.dims()[0]
@@ -120,6 +144,32 @@ mod tests {
     use burn::tensor::TensorData;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
+
+    #[test]
+    fn zeroed_inputs_no_longer_reach_the_output_and_the_others_still_do() {
+        let device = Backend::default_cpu().unwrap().device().unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let mut mlp = Mlp::new(4, &[6], 2, Activation::Tanh, &mut rng, &device);
+        let out = |mlp: &Mlp, x: [f32; 4]| {
+            mlp.forward(Tensor::from_data(
+                TensorData::new(x.to_vec(), [1, 4]),
+                &device,
+            ))
+            .into_data()
+            .try_into_vec::<f32>()
+            .unwrap()
+        };
+        let base = [0.3, -0.7, 0.0, 0.0];
+        let before = out(&mlp, base);
+        assert_ne!(before, out(&mlp, [0.3, -0.7, 5.0, -2.0]));
+        mlp.zero_inputs(&[2, 3]).unwrap();
+        // Where the zeroed inputs are 0 the function is unchanged; elsewhere they are ignored.
+        assert_eq!(out(&mlp, base), before);
+        assert_eq!(out(&mlp, [0.3, -0.7, 5.0, -2.0]), before);
+        assert_ne!(out(&mlp, [0.9, -0.7, 0.0, 0.0]), before);
+        let err = mlp.zero_inputs(&[4]).unwrap_err();
+        assert!(err.contains("input 4 of a 4-wide"), "{err}");
+    }
 
     #[test]
     fn forward_matches_a_hand_computation() {
