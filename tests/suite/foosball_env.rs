@@ -91,6 +91,21 @@ fn reward_is_alpha_minus_the_distance_to_the_goal() {
 }
 
 #[test]
+fn the_distance_weighs_as_set_and_with_no_shaping_only_goals_pay() {
+    let mut half = ten_ms();
+    half.reward.distance_weight = 0.5;
+    let mut env = placed(half, [6.0, 56.0], [0.0, 0.0]);
+    let (_, t) = env.step(&NEUTRAL).unwrap();
+    assert!((t.reward - (300.0 - 5.0)).abs() < 1e-2, "{}", t.reward);
+    let mut goals_only = ten_ms();
+    goals_only.reward.alpha = 0.0;
+    goals_only.reward.distance_weight = 0.0;
+    let mut env = placed(goals_only, [-30.0, -30.0], [0.0, 0.0]);
+    let (_, t) = env.step(&NEUTRAL).unwrap();
+    assert_eq!(t.reward, 0.0);
+}
+
+#[test]
 fn a_resting_ball_ends_the_episode_as_stagnant_after_10_steps() {
     let mut env = env_with(ten_ms());
     let ts = play_out(&mut env, 100);

@@ -423,9 +423,9 @@ pub fn overlay(base: &mut toml::Table, top: toml::Table) {
     }
 }
 
-/// Per agent step: `alpha - d + beta * [in goal] - conceded_penalty * [in own goal]`, with
-/// `d = |ball_xy - goal|` (`alpha - d` is replaced by 0 in the goal under
-/// `zero_shaping_in_goal`). The ball is in black's goal when its y >= `goal_line_y` inside
+/// Per agent step: `alpha - distance_weight * d + beta * [in goal] - conceded_penalty *
+/// [in own goal]`, with `d = |ball_xy - goal|` (the shaping `alpha - distance_weight * d`
+/// is replaced by 0 in the goal under `zero_shaping_in_goal`). The ball is in black's goal when its y >= `goal_line_y` inside
 /// the mouth, in yellow's when y <= -`own_goal_line_y`; every number is in the env's
 /// `ball_frame`. Under `rules.end_on_goal` the episode ends there, so the bonus or the
 /// penalty is paid once.
@@ -434,6 +434,10 @@ pub fn overlay(base: &mut toml::Table, top: toml::Table) {
 pub struct RewardConfig {
     /// Constant per-step offset (default 300).
     pub alpha: f32,
+    /// Weight of the ball's distance to `goal` (cm) in the per-step shaping (default 1,
+    /// the paper's). With `alpha = 0` and 0 here only goals pay: `beta` for, minus
+    /// `conceded_penalty` against, a match's reward.
+    pub distance_weight: f32,
     /// Bonus on every step the ball is in black's goal (default 1000).
     pub beta: f32,
     /// Penalty on every step the ball is in yellow's own goal (default 0: the paper's
@@ -458,6 +462,7 @@ impl Default for RewardConfig {
     fn default() -> Self {
         Self {
             alpha: 300.0,
+            distance_weight: 1.0,
             beta: 1000.0,
             conceded_penalty: 0.0,
             goal: [0.0, GOAL_LINE_Y],
@@ -773,6 +778,7 @@ impl FoosballConfig {
         at_least_one("frame_skip", self.frame_skip)?;
         at_least_one("max_episode_steps", self.max_episode_steps)?;
         finite("reward.alpha", self.reward.alpha)?;
+        finite("reward.distance_weight", self.reward.distance_weight)?;
         finite("reward.beta", self.reward.beta)?;
         finite("reward.conceded_penalty", self.reward.conceded_penalty)?;
         finite("reward.spin_penalty", self.reward.spin_penalty)?;

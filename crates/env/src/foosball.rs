@@ -1,9 +1,9 @@
 //! [`FoosballEnv`]: yellow (the agent) against a black [`Opponent`] on the simulated table.
 //!
 //! One agent step holds the action for `frame_skip` physics steps of `physics_dt`. The
-//! reward is `alpha - d + beta * [in goal] - conceded_penalty * [in own goal]` on the
-//! ball's position after the step (see [`crate::config::RewardConfig`]), paid on every
-//! step. An episode ends when the ball stays at or under `rules.stagnant_speed` for
+//! reward is `alpha - distance_weight * d + beta * [in goal] - conceded_penalty * [in own
+//! goal]` on the ball's position after the step (see [`crate::config::RewardConfig`]),
+//! paid on every step. An episode ends when the ball stays at or under `rules.stagnant_speed` for
 //! `rules.stagnant_steps` steps or gains no y for `rules.no_progress_steps` steps
 //! (terminated), when it enters a goal under `rules.end_on_goal` (terminated), reaches
 //! `max_episode_steps` (truncated), or the physics fails: a non-finite state or a ball
@@ -543,7 +543,7 @@ impl Env for FoosballEnv {
         let mut reward = if in_goal && rw.zero_shaping_in_goal {
             0.0
         } else {
-            rw.alpha - goal_distance
+            rw.alpha - rw.distance_weight * goal_distance
         };
         if in_goal {
             reward += rw.beta;
