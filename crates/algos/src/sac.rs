@@ -43,7 +43,8 @@ pub struct SacConfig {
     /// Initial temperature `alpha` (SB3's `"auto_1.0"`).
     pub init_alpha: f32,
     /// Whether `alpha` is learned towards `target_entropy` (default true, SB3's `"auto"`);
-    /// false holds it at `init_alpha` (SB3's `ent_coef = init_alpha`).
+    /// false holds it at `init_alpha` (SB3's `ent_coef = init_alpha`), also over networks
+    /// loaded from a run that learned its own.
     pub tune_alpha: bool,
     /// Target entropy; `None` means `-dim(A)`.
     pub target_entropy: Option<f32>,
@@ -412,7 +413,10 @@ impl OffPolicyLearner for Sac {
         self.critic = load_module(self.critic.clone(), &dir.join("critic.bpk"))?;
         self.critic_target =
             load_module(self.critic_target.clone(), &dir.join("critic_target.bpk"))?;
-        self.temperature = load_module(self.temperature.clone(), &dir.join("temperature.bpk"))?;
+        // A held temperature is the config's, whatever the saved networks learned.
+        if self.config.tune_alpha {
+            self.temperature = load_module(self.temperature.clone(), &dir.join("temperature.bpk"))?;
+        }
         if let Some(average) = self.actor_average.take() {
             self.actor_average = Some(load_module(average, &dir.join("actor_average.bpk"))?);
         }
@@ -515,6 +519,25 @@ mod tests {
         };
         assert!((alpha(false) - 0.3).abs() < 1e-6, "{}", alpha(false));
         assert!((alpha(true) - 0.3).abs() > 1e-4, "{}", alpha(true));
+        // Networks saved by a tuned run: a held temperature stays the config's.
+        let dir = std::env::temp_dir().join(format!("sac-held-alpha-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let tuned = trained(SacConfig::default(), 6);
+        crate::agent::Agent::save(&tuned, &dir).unwrap();
+        for (tune_alpha, expected) in [(false, 0.3), (true, tuned.learner().alpha())] {
+            let c = SacConfig {
+                init_alpha: 0.3,
+                tune_alpha,
+                ..SacConfig::default()
+            };
+            let mut loaded = trained(c, 0);
+            crate::agent::Agent::load(&mut loaded, &dir).unwrap();
+            assert!(
+                (loaded.learner().alpha() - expected).abs() < 1e-6,
+                "{tune_alpha}"
+            );
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     /// The deterministic actions of [`trained`] with `actor_average_tau = tau` on a fixed
