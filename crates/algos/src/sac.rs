@@ -299,11 +299,13 @@ impl OffPolicyLearner for Sac {
 
         // 2. Temperature.
         let alpha = self.temperature.alpha_on(&plain);
-        let alpha_loss = temperature_loss(
-            self.temperature.log_alpha.val(),
-            log_prob.clone(),
-            self.target_entropy(),
-        );
+        // A held temperature builds no graph (one never walked back would pile up in
+        // the autodiff graph, step after step): its loss is only reported.
+        let log_alpha = match self.config.tune_alpha {
+            true => self.temperature.log_alpha.val(),
+            false => self.temperature.log_alpha.val().detach(),
+        };
+        let alpha_loss = temperature_loss(log_alpha, log_prob.clone(), self.target_entropy());
         let alpha_loss_value = mean(alpha_loss.clone().inner());
         if self.config.tune_alpha {
             let mut grads = alpha_loss.backward();
