@@ -425,9 +425,9 @@ pub fn overlay(base: &mut toml::Table, top: toml::Table) {
 
 /// Per agent step: `alpha - distance_weight * d + beta * [in goal] - conceded_penalty *
 /// [in own goal]`, with `d = |ball_xy - goal|` (the shaping `alpha - distance_weight * d`
-/// is replaced by 0 in the goal under `zero_shaping_in_goal`). The ball is in black's goal when its y >= `goal_line_y` inside
-/// the mouth, in yellow's when y <= -`own_goal_line_y`; every number is in the env's
-/// `ball_frame`. Under `rules.end_on_goal` the episode ends there, so the bonus or the
+/// is replaced by 0 in the goal under `zero_shaping_in_goal`). The ball is in black's goal
+/// when its y >= `goal_line_y` inside the mouth, in yellow's when y <= -`own_goal_line_y`;
+/// every number is in the env's `ball_frame`. Under `rules.end_on_goal` the episode ends there, so the bonus or the
 /// penalty is paid once.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]

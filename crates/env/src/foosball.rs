@@ -3,8 +3,8 @@
 //! One agent step holds the action for `frame_skip` physics steps of `physics_dt`. The
 //! reward is `alpha - distance_weight * d + beta * [in goal] - conceded_penalty * [in own
 //! goal]` on the ball's position after the step (see [`crate::config::RewardConfig`]),
-//! paid on every step. An episode ends when the ball stays at or under `rules.stagnant_speed` for
-//! `rules.stagnant_steps` steps or gains no y for `rules.no_progress_steps` steps
+//! paid on every step. An episode ends when the ball stays at or under
+//! `rules.stagnant_speed` for `rules.stagnant_steps` steps or gains no y for `rules.no_progress_steps` steps
 //! (terminated), when it enters a goal under `rules.end_on_goal` (terminated), reaches
 //! `max_episode_steps` (truncated), or the physics fails: a non-finite state or a ball
 //! out of the table (truncated, flagged as [`EndReason::PhysicsFault`]).
