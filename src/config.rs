@@ -232,6 +232,15 @@ pub struct SelfPlayConfig {
     /// the learner meets it when it plays black in a match. Default 0 (every serve
     /// the learner's, as in the paper).
     pub black_serve_share: f32,
+    /// Training episodes played like a match (`env.rules.serve_again` on the learner's
+    /// table): a goal, a dead ball or a ball without progress serves again, and the
+    /// episode ends at `episode_steps`. Default false (the paper's episode: a still ball
+    /// ends it, which a learner that loses more than it wins takes as its way out).
+    pub serve_again: bool,
+    /// Training episodes' time limit, agent steps (default: the table's
+    /// `max_episode_steps`, 20,000 = 40 s under `reference`). A learner's record against
+    /// an opponent counts episodes: goals for against goals against.
+    pub episode_steps: Option<u32>,
 }
 
 impl Default for SelfPlayConfig {
@@ -251,6 +260,8 @@ impl Default for SelfPlayConfig {
             conceded_penalty: 1000.0,
             no_progress_end: false,
             black_serve_share: 0.0,
+            serve_again: false,
+            episode_steps: None,
         }
     }
 }
@@ -291,6 +302,9 @@ impl SelfPlayConfig {
                  random, scripted, shooter, dribbler) or set anchor_share = 0"
                     .into(),
             ));
+        }
+        if self.episode_steps == Some(0) {
+            return Err(err("episode_steps", "must be at least 1".into()));
         }
         if !(self.pfsp_power.is_finite() && self.pfsp_power >= 0.0) {
             return Err(err(

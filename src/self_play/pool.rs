@@ -28,13 +28,14 @@ impl Record {
         (self.wins as f64 + 0.5 * self.draws as f64 + 0.5) / (self.games as f64 + 1.0)
     }
 
-    /// Adds one episode: `scored` and `conceded` as the episode's info says.
-    pub fn add(&mut self, scored: bool, conceded: bool) {
+    /// Adds one episode by its goals, `[learner's, opponent's]` (the info's `goals`):
+    /// more is a win, as many a draw.
+    pub fn add(&mut self, goals: [u32; 2]) {
         self.games += 1;
-        match (scored, conceded) {
-            (true, false) => self.wins += 1,
-            (false, true) => {}
-            _ => self.draws += 1,
+        match goals[0].cmp(&goals[1]) {
+            std::cmp::Ordering::Greater => self.wins += 1,
+            std::cmp::Ordering::Equal => self.draws += 1,
+            std::cmp::Ordering::Less => {}
         }
     }
 }
@@ -210,9 +211,10 @@ impl Pool {
             .playing = Some(index);
     }
 
-    /// Records the episode environment `env` just ended (`scored`, `conceded` from its
-    /// info) against the opponent it played; returns that opponent's index.
-    pub fn record(&self, env: usize, scored: bool, conceded: bool) -> Option<usize> {
+    /// Records the episode environment `env` just ended (`goals` from its info: the
+    /// learner's, the opponent's) against the opponent it played; returns that
+    /// opponent's index.
+    pub fn record(&self, env: usize, goals: [u32; 2]) -> Option<usize> {
         let index = self.slots[env]
             .lock()
             .unwrap_or_else(PoisonError::into_inner)
@@ -220,7 +222,7 @@ impl Pool {
             .take()?;
         self.entries.write().unwrap_or_else(PoisonError::into_inner)[index]
             .record
-            .add(scored, conceded);
+            .add(goals);
         Some(index)
     }
 
@@ -326,12 +328,14 @@ mod tests {
     fn records_count_wins_draws_and_losses() {
         let mut r = Record::default();
         assert_eq!(r.points_share(), 0.5);
-        r.add(true, false);
-        r.add(false, true);
-        r.add(true, true);
-        r.add(false, false);
-        assert_eq!((r.games, r.wins, r.draws), (4, 1, 2));
-        assert_eq!(r.points_share(), (1.0 + 1.0 + 0.5) / 5.0);
+        r.add([1, 0]);
+        r.add([0, 1]);
+        r.add([1, 1]);
+        r.add([0, 0]);
+        r.add([3, 2]);
+        r.add([2, 3]);
+        assert_eq!((r.games, r.wins, r.draws), (6, 2, 2));
+        assert_eq!(r.points_share(), (2.0 + 1.0 + 0.5) / 7.0);
     }
 
     #[test]
@@ -407,8 +411,8 @@ mod tests {
         // An auto-reset then a restart in the same step keep the ended opponent.
         p.reset_slot(0);
         p.reset_slot(0);
-        assert_eq!(p.record(0, true, false), Some(2));
-        assert_eq!(p.record(0, true, false), None);
+        assert_eq!(p.record(0, [1, 0]), Some(2));
+        assert_eq!(p.record(0, [1, 0]), None);
         assert_eq!(p.entries()[2].record.wins, 1);
     }
 }

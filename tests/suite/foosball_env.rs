@@ -166,6 +166,77 @@ fn an_own_goal_is_conceded_with_the_penalty_under_end_on_goal() {
     assert!((last.reward - (300.0 - distance - 500.0)).abs() < 1e-2);
 }
 
+/// `config` with `rules.serve_again` and a time limit of `steps`.
+fn serving(mut config: FoosballConfig, steps: u32) -> FoosballConfig {
+    config.rules.serve_again = true;
+    config.max_episode_steps = steps;
+    config
+}
+
+#[test]
+fn under_serve_again_a_dead_ball_is_served_again_on_a_neutral_table_until_the_time_limit() {
+    let mut env = env_with(serving(ten_ms(), 35));
+    // Yellow slides its rods out while the ball lies still: stagnant after 10 steps.
+    let out = [1.0, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0, 0.0];
+    let mut seen = Vec::new();
+    loop {
+        let (obs, t) = env.step(&out).unwrap();
+        let done = t.done();
+        seen.push((obs, t));
+        if done {
+            break;
+        }
+    }
+    assert_eq!(seen.len(), 35, "the episode runs to its time limit");
+    let serves: Vec<u32> = seen.iter().map(|(_, t)| t.info.serves).collect();
+    for (i, &n) in serves.iter().enumerate() {
+        assert_eq!(n, (i as u32 + 1) / 10, "serves after step {}", i + 1);
+    }
+    let (last_obs, last) = seen.last().unwrap();
+    assert_eq!(last.info.end, Some(EndReason::TimeLimit));
+    assert!(last.truncated && !last.terminated);
+    assert!(last_obs.iter().all(|v| v.is_finite()));
+    // The serve step: the point's reward, not an end, and a table with the rods at
+    // neutral and the ball at rest on the start.
+    let (before, _) = &seen[8];
+    let (served, t) = &seen[9];
+    assert!(t.info.end.is_none() && !t.done(), "{:?}", t.info);
+    assert!(t.reward > 0.0 && t.reward < 300.0);
+    assert!(before[ROD_SLIDE].iter().take(4).all(|s| s.abs() > 0.5));
+    assert!(
+        served[ROD_SLIDE].iter().all(|s| s.abs() < 1e-3),
+        "{served:?}"
+    );
+    let ball = &served[BALL_POS];
+    assert!(ball[0].abs() < 5.0 && ball[1].abs() < 5.0, "{ball:?}");
+    assert_eq!(t.info.goals, [0, 0]);
+    assert_eq!(env.step(&NEUTRAL).unwrap_err(), EnvError::NeedsReset);
+}
+
+#[test]
+fn under_serve_again_goals_are_counted_and_served_again() {
+    let mut env = placed(serving(end_on_goal(), 60), [5.0, 42.0], [0.0, 300.0]);
+    let ts = play_out(&mut env, 100);
+    assert_eq!(ts.len(), 60);
+    let goal = ts.iter().position(|t| t.info.in_goal).expect("a goal");
+    let t = &ts[goal];
+    assert!(t.reward > 1000.0 + 300.0 - 8.0 && !t.done(), "{:?}", t.info);
+    assert_eq!((t.info.goals, t.info.serves), ([1, 0], 1));
+    let last = ts.last().unwrap();
+    assert_eq!(last.info.goals, [1, 0], "one goal, then still balls");
+    assert!(last.info.scored() && !last.info.conceded() && last.truncated);
+
+    let mut config = serving(end_on_goal(), 60);
+    config.rules.no_progress_steps = 1000;
+    let mut env = placed(config, [5.0, -42.0], [0.0, -300.0]);
+    let ts = play_out(&mut env, 100);
+    let last = ts.last().unwrap();
+    assert_eq!(
+        (last.info.goals, last.info.end),
+        ([0, 1], Some(EndReason::TimeLimit))
+    );
+}
+
 #[test]
 fn a_non_finite_action_is_refused_and_changes_nothing() {
     let mut a = env_with(ten_ms());

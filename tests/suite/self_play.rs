@@ -146,6 +146,10 @@ fn bad_self_play_settings_are_refused_by_key() {
         ),
         ("[self_play]\npfsp_power = -1\n", "self_play.pfsp_power"),
         (
+            "[self_play]\nepisode_steps = 0\n",
+            "self_play.episode_steps",
+        ),
+        (
             "[self_play]\nblack_serve_share = 1.5\n",
             "self_play.black_serve_share",
         ),
@@ -251,6 +255,18 @@ fn the_self_play_table_counts_black_s_goals_and_drops_no_progress_unless_kept() 
         },
     );
     assert_eq!(served.start.black_share, 0.25);
+    assert!(!served.rules.serve_again);
+    assert_eq!(served.max_episode_steps, c.env.max_episode_steps);
+    let match_like = self_play_table(
+        &c.env,
+        &SelfPlayConfig {
+            serve_again: true,
+            episode_steps: Some(2500),
+            ..SelfPlayConfig::default()
+        },
+    );
+    assert!(match_like.rules.serve_again);
+    assert_eq!(match_like.max_episode_steps, 2500);
 }
 
 /// `start.black_share`: a served episode's ball lies at the mirror image (world (x, y) ->

@@ -21,6 +21,7 @@
 //! | `rules.stagnant_steps` (agent steps at <= `stagnant_speed` = 0.5 cm/s) | 10 (20 ms) | 10 (100 ms) | 10 (100 ms) | 10 (20 ms) | 10 (100 ms) |
 //! | `rules.no_progress_steps` (agent steps without +y) | 15 (30 ms) | 15 (150 ms) | 15 (150 ms) | 15 (30 ms) | 15 (150 ms) |
 //! | `rules.end_on_goal` | false | false | true | false | false |
+//! | `rules.serve_again` (a point's end serves again, the episode goes on) | false | false | false | false | false |
 //! | `reward.goal` (cm, in `ball_frame`) | (0, 65) | (0, 64) | (0, 64) | (0, 65) | (0, 64) |
 //! | `reward.goal_line_y` (in black's goal when y >= it) | 65 | 64 | 64 | 65 | 64 |
 //! | `reward.own_goal_line_y` (in yellow's goal when y <= -it) | 65 | 64 | 64 | 65 | 64 |
@@ -493,6 +494,13 @@ pub struct EpisodeRules {
     pub spin: SpinRule,
     /// Rotation in one direction that makes a spin, degrees (default 360, ITSF's).
     pub spin_limit_deg: f32,
+    /// A point's end does not end the episode (default false, the paper's episode): a goal
+    /// under `end_on_goal`, a stagnant ball or one without progress serves the ball again,
+    /// drawn from `start` as at a reset, at rest, on a table whose rods are back at neutral
+    /// (a match's serve); the episode's draw, its opponent and its counters carry on, and it
+    /// ends at `max_episode_steps` (truncated), a physics fault or a spin foul. The step's
+    /// reward and info are those of the point's end; its observation is the served table.
+    pub serve_again: bool,
 }
 
 impl Default for EpisodeRules {
@@ -504,6 +512,7 @@ impl Default for EpisodeRules {
             end_on_goal: false,
             spin: SpinRule::Off,
             spin_limit_deg: 360.0,
+            serve_again: false,
         }
     }
 }

@@ -7,7 +7,9 @@
 //! `rules.stagnant_speed` for `rules.stagnant_steps` steps or gains no y for `rules.no_progress_steps` steps
 //! (terminated), when it enters a goal under `rules.end_on_goal` (terminated), reaches
 //! `max_episode_steps` (truncated), or the physics fails: a non-finite state or a ball
-//! out of the table (truncated, flagged as [`EndReason::PhysicsFault`]).
+//! out of the table (truncated, flagged as [`EndReason::PhysicsFault`]). Under
+//! `rules.serve_again` the ends of a point (a goal, a stagnant ball, no progress) serve the
+//! ball again instead, as a match does, and the episode goes on to its time limit.
 
 use std::collections::VecDeque;
 
@@ -82,6 +84,15 @@ impl EndReason {
     pub fn is_terminal(self) -> bool {
         !matches!(self, EndReason::TimeLimit | EndReason::PhysicsFault)
     }
+
+    /// True for the ends of a point, which `rules.serve_again` turns into a serve: a goal,
+    /// a stagnant ball, a ball without progress.
+    pub fn ends_point(self) -> bool {
+        matches!(
+            self,
+            EndReason::Scored | EndReason::Conceded | EndReason::Stagnant | EndReason::NoProgress
+        )
+    }
 }
 
 /// What evaluation needs from each step.
@@ -106,6 +117,12 @@ pub struct FoosballInfo {
     pub episode_conceded: bool,
     /// Spins ([`crate::spin`]) of yellow's rods and of black's in this episode so far.
     pub spins: [u32; 2],
+    /// Goals in this episode so far: the ball's entries into black's goal (yellow's goals)
+    /// and into yellow's (black's goals).
+    pub goals: [u32; 2],
+    /// Serves after the kick-off in this episode so far (`rules.serve_again`); this step
+    /// ended a point and served again when it grew.
+    pub serves: u32,
 }
 
 impl FoosballInfo {
@@ -152,6 +169,10 @@ struct Episode {
     over: bool,
     spin: SpinMeter,
     spins: [u32; 2],
+    /// The ball was in black's goal, in yellow's, after the last step.
+    in_goals: [bool; 2],
+    goals: [u32; 2],
+    serves: u32,
 }
 
 /// The foosball table as a reinforcement-learning environment (see the module docs).
@@ -305,9 +326,9 @@ impl FoosballEnv {
         self.episode.as_ref().map(|e| &e.state)
     }
 
-    /// Distance from the ball (world x, y) to the reward's goal point, cm.
-    fn goal_distance(&self, ball: &[f32]) -> f32 {
-        let [gx, gy] = self.config.goal_world();
+    /// Distance from the ball (world x, y) to the reward's goal point of `config`, cm.
+    fn goal_distance(config: &FoosballConfig, ball: &[f32]) -> f32 {
+        let [gx, gy] = config.goal_world();
         ((ball[0] - gx).powi(2) + (ball[1] - gy).powi(2)).sqrt()
     }
 
@@ -412,14 +433,7 @@ impl Env for FoosballEnv {
             self.rng = EnvRng::seed_from_u64(seed);
         }
         let draw = self.draw_episode();
-        let s = &self.config.start;
-        let [x_mean, y_mean] = self.config.start_world();
-        let limit_x = geometry::FIELD_HALF_WIDTH - geometry::BALL_RADIUS;
-        let limit_y = geometry::FIELD_HALF_LENGTH - geometry::BALL_RADIUS;
-        let x = (x_mean + s.x_std * gaussian(&mut self.rng)).clamp(-limit_x, limit_x);
-        let y = (y_mean + s.y_std * gaussian(&mut self.rng)).clamp(-limit_y, limit_y);
-        let black_serves = s.black_share > 0.0 && self.rng.random::<f32>() < s.black_share;
-        let [x, y] = if black_serves { [-x, -y] } else { [x, y] };
+        let [x, y] = serve_point(&self.config, &mut self.rng);
         let table = Table::new(&draw.physics, [x, y]);
         let state = Self::observe(&table);
         self.table = Some(table);
@@ -437,6 +451,9 @@ impl Env for FoosballEnv {
             over: false,
             spin: SpinMeter::new(&state[ROD_ANGLE]),
             spins: [0; 2],
+            in_goals: [false; 2],
+            goals: [0; 2],
+            serves: 0,
         });
         self.emit(&state, obs, true);
     }
@@ -528,17 +545,26 @@ impl Env for FoosballEnv {
         } else {
             None
         };
-        let end = event.or(rule_end);
-        ep.state = state;
-        ep.over = end.is_some();
+        let mut end = event.or(rule_end);
+        let mut serve = false;
+        if rules.serve_again && end.is_some_and(EndReason::ends_point) {
+            // The point is over; the episode only at its time limit.
+            end = (ep.steps >= self.config.max_episode_steps).then_some(EndReason::TimeLimit);
+            serve = end.is_none();
+        }
         let steps = ep.steps;
         let spins = ep.spins;
 
         let (in_goal, in_own_goal) = goals(state[BALL_POS.start], y, line_y, own_line_y);
         ep.scored |= in_goal;
         ep.conceded |= in_own_goal;
+        for (side, inside) in [in_goal, in_own_goal].into_iter().enumerate() {
+            ep.goals[side] += u32::from(inside && !ep.in_goals[side]);
+            ep.in_goals[side] = inside;
+        }
         let (episode_scored, episode_conceded) = (ep.scored, ep.conceded);
-        let goal_distance = self.goal_distance(&state[BALL_POS]);
+        let goals_so_far = ep.goals;
+        let goal_distance = Self::goal_distance(&self.config, &state[BALL_POS]);
         let rw = &self.config.reward;
         let mut reward = if in_goal && rw.zero_shaping_in_goal {
             0.0
@@ -552,6 +578,20 @@ impl Env for FoosballEnv {
             reward -= rw.conceded_penalty;
         }
         reward -= spin_penalty;
+        if serve {
+            // A match's serve: a fresh table (rods at neutral) with the episode's physics.
+            *table = Table::new(&ep.draw.physics, serve_point(&self.config, &mut self.rng));
+            state = Self::observe(table);
+            ep.serves += 1;
+            ep.stagnant_steps = 0;
+            ep.no_progress_steps = 0;
+            ep.prev_ball_y = state[BALL_POS.start + 1];
+            ep.in_goals = [false; 2];
+            ep.spin = SpinMeter::new(&state[ROD_ANGLE]);
+        }
+        ep.state = state;
+        ep.over = end.is_some();
+        let serves = ep.serves;
         self.emit(&state, obs, false);
         Ok(Transition {
             reward,
@@ -567,7 +607,22 @@ impl Env for FoosballEnv {
                 episode_scored,
                 episode_conceded,
                 spins,
+                goals: goals_so_far,
+                serves,
             },
         })
     }
+}
+
+/// Where a serve puts the ball (world x, y, cm): drawn from `config.start` (in a
+/// `black_share` of the serves turned 180 degrees about the centre), kept on the field.
+fn serve_point(config: &FoosballConfig, rng: &mut EnvRng) -> [f32; 2] {
+    let s = &config.start;
+    let [x_mean, y_mean] = config.start_world();
+    let limit_x = geometry::FIELD_HALF_WIDTH - geometry::BALL_RADIUS;
+    let limit_y = geometry::FIELD_HALF_LENGTH - geometry::BALL_RADIUS;
+    let x = (x_mean + s.x_std * gaussian(rng)).clamp(-limit_x, limit_x);
+    let y = (y_mean + s.y_std * gaussian(rng)).clamp(-limit_y, limit_y);
+    let black_serves = s.black_share > 0.0 && rng.random::<f32>() < s.black_share;
+    if black_serves { [-x, -y] } else { [x, y] }
 }

@@ -22,7 +22,8 @@ pub fn obs_shape(config: &FoosballConfig) -> Vec<usize> {
 /// One step's details: `end` (the end reason's name, or None while the episode runs),
 /// `goal_distance` (cm), `ball_speed` (cm/s), `steps`, `in_goal`, `in_own_goal`,
 /// `scored` and `conceded` (so far in the episode), `spins` (yellow's and black's rods'
-/// spins so far, `[2]`); `episode` (see [`stats_dict`]) on its last step.
+/// spins so far, `[2]`), `goals` (yellow's and black's goals so far, `[2]`), `serves`
+/// (serves after the kick-off so far, `rules.serve_again`); `episode` (see [`stats_dict`]) on its last step.
 pub fn info_dict<'py>(
     py: Python<'py>,
     info: &FoosballInfo,
@@ -38,6 +39,8 @@ pub fn info_dict<'py>(
     d.set_item("scored", info.episode_scored)?;
     d.set_item("conceded", info.episode_conceded)?;
     d.set_item("spins", info.spins.to_vec())?;
+    d.set_item("goals", info.goals.to_vec())?;
+    d.set_item("serves", info.serves)?;
     if let Some(stats) = stats {
         d.set_item("episode", stats_dict(py, stats)?)?;
     }

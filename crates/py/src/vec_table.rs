@@ -182,6 +182,10 @@ impl VecTable {
             infos.set_item("conceded", array(py, &flag(|i| i.episode_conceded), &[n])?)?;
             let spins: Vec<u32> = b.infos.iter().flat_map(|i| i.spins).collect();
             infos.set_item("spins", array(py, &spins, &[n, 2])?)?;
+            let goals: Vec<u32> = b.infos.iter().flat_map(|i| i.goals).collect();
+            infos.set_item("goals", array(py, &goals, &[n, 2])?)?;
+            let serves: Vec<u32> = b.infos.iter().map(|i| i.serves).collect();
+            infos.set_item("serves", array(py, &serves, &[n])?)?;
             let ended = if b.ended.iter().any(Option::is_some) {
                 Some(self.ended_dict(py)?)
             } else {

@@ -79,6 +79,7 @@ def test_the_last_step_reports_the_end_and_the_episode_metrics():
     # A zero policy never touches the ball: the start ball stagnates; no rod spins.
     assert info["end"] == "stagnant"
     assert info["spins"] == [0, 0]
+    assert info["goals"] == [0, 0] and info["serves"] == 0
 
 
 def test_render_draws_the_table():

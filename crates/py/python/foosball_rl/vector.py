@@ -14,7 +14,18 @@ from foosball_rl._core import ActionError, VecTable
 from foosball_rl.env import _check_render_mode, _check_seed
 
 # Per-step info keys, each a [num_envs] array.
-_STEP_KEYS = ("goal_distance", "ball_speed", "steps", "in_goal", "in_own_goal", "scored", "conceded", "spins")
+_STEP_KEYS = (
+    "goal_distance",
+    "ball_speed",
+    "steps",
+    "in_goal",
+    "in_own_goal",
+    "scored",
+    "conceded",
+    "spins",
+    "goals",
+    "serves",
+)
 _EPISODE_KEYS = ("return", "length", "scored", "mean_goal_distance", "mean_ball_speed", "final_goal_distance")
 
 
