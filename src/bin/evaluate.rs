@@ -60,16 +60,23 @@ fn head_to_head(
     let table = match_table(player.env(), &rules);
     let me = player.contestant();
     let played = matches::head_to_head(&table, &rules, &me, opponent, matches / 2, seed)?;
-    let (mut t, mut o) = (Tally::default(), Tally::default());
+    let [t, as_yellow, as_black] = matches::tallies(&played);
+    let mut o = Tally::default();
     for (on_yellow, r) in &played {
-        t.add(r.side(*on_yellow));
         o.add(r.side(!*on_yellow));
     }
+    let side = |s: &Tally| {
+        format!(
+            "{}-{}-{}, goals {}:{}",
+            s.wins, s.draws, s.losses, s.scored, s.let_in
+        )
+    };
     let [lo, hi] = wilson_points(t.points, f64::from(matches)).ci95;
     let dt = table.agent_dt();
     Ok(format!(
         "{} against {opponent}: {matches} matches, {}-{}-{} (W-D-L), goals {}:{}, \
-         points share {:.0} % [{:.0}, {:.0}] (95 % Wilson); spins per minute {:.2} vs {:.2}",
+         points share {:.0} % [{:.0}, {:.0}] (95 % Wilson); spins per minute {:.2} vs {:.2}; \
+         as yellow (serving) {}, as black {}",
         player.describe(),
         t.wins,
         t.draws,
@@ -80,7 +87,9 @@ fn head_to_head(
         100.0 * lo,
         100.0 * hi,
         t.spins_per_minute(dt),
-        o.spins_per_minute(dt)
+        o.spins_per_minute(dt),
+        side(&as_yellow),
+        side(&as_black)
     ))
 }
 

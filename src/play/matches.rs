@@ -178,6 +178,18 @@ impl Tally {
     }
 }
 
+/// The first contestant's matches of [`head_to_head`] added up: `[all, as yellow, as
+/// black]` (as yellow every serve lies on its side).
+pub fn tallies(played: &[(bool, MatchResult)]) -> [Tally; 3] {
+    let mut t = [Tally::default(); 3];
+    for &(on_yellow, r) in played {
+        let side = r.side(on_yellow);
+        t[0].add(side);
+        t[if on_yellow { 1 } else { 2 }].add(side);
+    }
+    t
+}
+
 /// `table` with the match rules of the module docs.
 pub fn match_table(table: &FoosballConfig, rules: &MatchRules) -> FoosballConfig {
     let mut t = symmetric_goals(table);
@@ -290,4 +302,28 @@ pub fn head_to_head(
         out.push((false, play_match(table, rules, b, a, s)?));
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tallies_split_the_matches_by_side() {
+        let m = |yellow_goals, black_goals| MatchResult {
+            yellow_goals,
+            black_goals,
+            ..MatchResult::default()
+        };
+        // As yellow: a 2:0 win and a 1:1 draw; as black: a loss, yellow won 5:0.
+        let played = [(true, m(2, 0)), (true, m(1, 1)), (false, m(5, 0))];
+        let [all, yellow, black] = tallies(&played);
+        assert_eq!((all.matches, all.wins, all.draws, all.losses), (3, 1, 1, 1));
+        assert_eq!((all.scored, all.let_in), (3, 6));
+        assert_eq!(
+            (yellow.wins, yellow.draws, yellow.scored, yellow.let_in),
+            (1, 1, 3, 1)
+        );
+        assert_eq!((black.losses, black.scored, black.let_in), (1, 0, 5));
+    }
 }
