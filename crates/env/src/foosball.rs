@@ -161,8 +161,6 @@ struct Episode {
     stagnant_steps: u32,
     no_progress_steps: u32,
     prev_ball_y: f32,
-    scored: bool,
-    conceded: bool,
     pending: VecDeque<[f32; ACTION_DIM]>,
     /// Noise-free observation after the last step.
     state: [f32; OBS_DIM],
@@ -171,6 +169,7 @@ struct Episode {
     spins: [u32; 2],
     /// The ball was in black's goal, in yellow's, after the last step.
     in_goals: [bool; 2],
+    /// Entries into black's goal, into yellow's, this episode.
     goals: [u32; 2],
     serves: u32,
 }
@@ -444,8 +443,6 @@ impl Env for FoosballEnv {
             stagnant_steps: 0,
             no_progress_steps: 0,
             prev_ball_y: y,
-            scored: false,
-            conceded: false,
             pending: VecDeque::new(),
             state,
             over: false,
@@ -556,13 +553,12 @@ impl Env for FoosballEnv {
         let spins = ep.spins;
 
         let (in_goal, in_own_goal) = goals(state[BALL_POS.start], y, line_y, own_line_y);
-        ep.scored |= in_goal;
-        ep.conceded |= in_own_goal;
         for (side, inside) in [in_goal, in_own_goal].into_iter().enumerate() {
             ep.goals[side] += u32::from(inside && !ep.in_goals[side]);
             ep.in_goals[side] = inside;
         }
-        let (episode_scored, episode_conceded) = (ep.scored, ep.conceded);
+        // The ball has been in a goal this episode when it has entered it.
+        let [episode_scored, episode_conceded] = ep.goals.map(|g| g > 0);
         let goals_so_far = ep.goals;
         let goal_distance = Self::goal_distance(&self.config, &state[BALL_POS]);
         let rw = &self.config.reward;
