@@ -42,6 +42,11 @@ struct Args {
     /// With `--opponent`: the seed the serves derive from.
     #[arg(long, requires = "opponent", default_value_t = 0)]
     match_seed: u64,
+    /// With `--opponent`: hold these of the player's rods at neutral (`goalie`,
+    /// `defence`, `midfield`, `attack`, comma separated), to find which rod's play lets
+    /// goals in.
+    #[arg(long, requires = "opponent")]
+    hold: Option<String>,
 }
 
 /// `player` against `opponent`: W-D-L, goals and the points share with its interval.
@@ -50,6 +55,7 @@ fn head_to_head(
     opponent: &Contestant,
     matches: u32,
     seed: u64,
+    hold: Option<&str>,
 ) -> Result<String, String> {
     if matches == 0 || matches % 2 == 1 {
         return Err(format!(
@@ -58,7 +64,10 @@ fn head_to_head(
     }
     let rules = MatchRules::default();
     let table = match_table(player.env(), &rules);
-    let me = player.contestant();
+    let me = match hold {
+        Some(rods) => player.contestant().holding(rods)?,
+        None => player.contestant(),
+    };
     let played = matches::head_to_head(&table, &rules, &me, opponent, matches / 2, seed)?;
     let [t, as_yellow, as_black] = matches::tallies(&played);
     let mut o = Tally::default();
@@ -77,7 +86,10 @@ fn head_to_head(
         "{} against {opponent}: {matches} matches, {}-{}-{} (W-D-L), goals {}:{}, \
          points share {:.0} % [{:.0}, {:.0}] (95 % Wilson); spins per minute {:.2} vs {:.2}; \
          as yellow (serving) {}, as black {}",
-        player.describe(),
+        match hold {
+            Some(rods) => format!("{} holding {rods}", player.describe()),
+            None => player.describe(),
+        },
         t.wins,
         t.draws,
         t.losses,
@@ -96,7 +108,13 @@ fn head_to_head(
 fn run(args: &Args) -> Result<String, String> {
     let player = Player::from_args(&args.player)?;
     if let Some(opponent) = &args.opponent {
-        return head_to_head(&player, opponent, args.matches, args.match_seed);
+        return head_to_head(
+            &player,
+            opponent,
+            args.matches,
+            args.match_seed,
+            args.hold.as_deref(),
+        );
     }
     let episodes = match args.episodes.unwrap_or(player.default_episodes()) {
         0 => return Err("--episodes must be positive".into()),

@@ -1,11 +1,15 @@
 //! Who plays one side of a two-sided match: a run's saved networks or a scripted policy,
-//! named on the command line as `shooter`, `blocker`, ... or `DIR[@best|@last][~sampled]`.
+//! named on the command line as `shooter`, `blocker`, ... or `DIR[@best|@last][~sampled]`,
+//! either with `+hold=ROD[,ROD]` to hold some of its rods at neutral (a diagnosis: which
+//! rod's play lets goals in).
 
 use std::fmt;
 use std::path::PathBuf;
 use std::str::FromStr;
 
 use foosball_algos::ActMode;
+use foosball_env::geometry::RODS;
+use foosball_env::layout::{action_slide, action_turn};
 use foosball_env::seeding::{ACTION_SAMPLING, derive_seed};
 use foosball_env::{FoosballConfig, ObservationKind};
 use serde::{Deserialize, Serialize};
@@ -30,14 +34,30 @@ pub enum Contestant {
         /// How they act (default deterministic).
         actions: TestActions,
     },
+    /// Another contestant whose commands for some rods are replaced by 0 (the rod held at
+    /// neutral, feet down) every step.
+    Held {
+        /// Who plays the other rods.
+        player: Box<Contestant>,
+        /// The held rods: indices into [`RODS`] (0 goalie, 1 defence, 2 midfield, 3
+        /// attack), ascending, no repeats.
+        rods: Vec<usize>,
+    },
 }
 
 impl FromStr for Contestant {
     type Err = String;
 
     /// `shooter`, `dribbler`, `zero`, `random`, `blocker`, or a run directory with optional
-    /// `@best`/`@last` and `~sampled` (e.g. `results/figure2/sac-seed0@best~sampled`).
+    /// `@best`/`@last` and `~sampled` (e.g. `results/figure2/sac-seed0@best~sampled`),
+    /// either followed by `+hold=ROD[,ROD]` with rods named as in [`RODS`].
     fn from_str(s: &str) -> Result<Self, String> {
+        if let Some((player, names)) = s.rsplit_once("+hold=") {
+            return player
+                .parse::<Contestant>()?
+                .holding(names)
+                .map_err(|why| format!("contestant `{s}`: {why}"));
+        }
         for policy in [
             ScriptedPolicy::Shooter,
             ScriptedPolicy::Dribbler,
@@ -95,11 +115,24 @@ impl fmt::Display for Contestant {
                 }
                 Ok(())
             }
+            Contestant::Held { player, rods } => {
+                let names: Vec<&str> = rods.iter().map(|&r| RODS[r].name).collect();
+                write!(f, "{player}+hold={}", names.join(","))
+            }
         }
     }
 }
 
 impl Contestant {
+    /// It with the rods named in `names` (`goalie,midfield`: [`RODS`]' names, comma
+    /// separated) held at neutral; an error names an unknown rod.
+    pub fn holding(self, names: &str) -> Result<Contestant, String> {
+        Ok(Contestant::Held {
+            player: Box::new(self),
+            rods: held_rods(names)?,
+        })
+    }
+
     /// Its policy on `table`, seeded by `seed` where it draws (random commands, sampled
     /// actions). A run's networks must have been trained on observations and actions
     /// that mean on `table` what they meant in training; a refusal says what differs.
@@ -124,8 +157,40 @@ impl Contestant {
                     }
                 })
             }
+            Contestant::Held { player, rods } => {
+                let mut policy = player.policy(table, seed)?;
+                let held: Vec<usize> = rods
+                    .iter()
+                    .flat_map(|&r| [action_slide(r), action_turn(r)])
+                    .collect();
+                Ok(Box::new(move |obs: &[f32]| {
+                    let mut action = policy(obs);
+                    for &i in &held {
+                        if let Some(a) = action.get_mut(i) {
+                            *a = 0.0;
+                        }
+                    }
+                    action
+                }))
+            }
         }
     }
+}
+
+/// Rod indices from `goalie,midfield`-style names: ascending, each once.
+fn held_rods(names: &str) -> Result<Vec<usize>, String> {
+    let mut rods = names
+        .split(',')
+        .map(|name| {
+            RODS.iter().position(|r| r.name == name).ok_or_else(|| {
+                let known: Vec<&str> = RODS.iter().map(|r| r.name).collect();
+                format!("unknown rod `{name}` to hold ({})", known.join(", "))
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    rods.sort_unstable();
+    rods.dedup();
+    Ok(rods)
 }
 
 /// Whether a policy trained on `trained` reads and writes `table`'s observations and
@@ -147,4 +212,39 @@ pub fn fits(trained: &FoosballConfig, table: &FoosballConfig) -> Result<(), Stri
         ));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use foosball_env::layout::OBS_DIM;
+
+    #[test]
+    fn held_rods_parse_print_and_hold() {
+        let c: Contestant = "random+hold=midfield,goalie,midfield".parse().unwrap();
+        assert_eq!(
+            c,
+            Contestant::Held {
+                player: Box::new(Contestant::Scripted(ScriptedPolicy::Random)),
+                rods: vec![0, 2],
+            }
+        );
+        assert_eq!(c.to_string(), "random+hold=goalie,midfield");
+        let table = FoosballConfig::default();
+        let mut policy = c.policy(&table, 3).unwrap();
+        for _ in 0..20 {
+            let a = policy(&[0.0; OBS_DIM]);
+            assert_eq!([a[0], a[1], a[4], a[5]], [0.0; 4]);
+            assert!([a[2], a[3], a[6], a[7]].iter().all(|v| *v != 0.0));
+        }
+    }
+
+    #[test]
+    fn an_unknown_held_rod_is_named() {
+        let err = "zero+hold=keeper".parse::<Contestant>().unwrap_err();
+        assert!(err.contains("unknown rod `keeper`"), "{err}");
+        assert!(err.contains("goalie, defence, midfield, attack"), "{err}");
+        let err = "nowhere+hold=goalie".parse::<Contestant>().unwrap_err();
+        assert!(err.contains("nowhere"), "{err}");
+    }
 }
