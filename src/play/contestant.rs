@@ -147,15 +147,22 @@ impl Contestant {
                 let config = RunConfig::load_run(dir).map_err(|e| e.to_string())?;
                 fits(&config.env, table).map_err(|why| format!("{}: {why}", dir.display()))?;
                 let mut agent = load_agent(&config, &dir.join(checkpoint.name()))?;
-                Ok(match actions {
-                    TestActions::Deterministic => {
-                        Box::new(move |obs: &[f32]| agent.act(obs, ActMode::Deterministic))
-                    }
+                let mode = match actions {
+                    TestActions::Deterministic => ActMode::Deterministic,
                     TestActions::Stochastic => {
                         agent.seed_sampling(derive_seed(seed, ACTION_SAMPLING, 0));
-                        Box::new(move |obs: &[f32]| agent.act(obs, ActMode::Sample))
+                        ActMode::Sample
                     }
-                })
+                };
+                let observation = config.env.observation;
+                Ok(Box::new(move |obs: &[f32]| {
+                    if !observation.hide_black_rods {
+                        return agent.act(obs, mode);
+                    }
+                    let mut seen = obs.to_vec();
+                    observation.conceal(&mut seen);
+                    agent.act(&seen, mode)
+                }))
             }
             Contestant::Held { player, rods } => {
                 let mut policy = player.policy(table, seed)?;

@@ -8,7 +8,9 @@
 //! point; yellow's own goal line is black's goal line mirrored (the reference code's own-goal
 //! test, world y < -69, cannot be reached); the "no progress" rule of the training episode
 //! is off (black attacks the other way); a dead ball (slower than the table's
-//! `stagnant_speed` for `dead_ball_s`) is served again without a goal.
+//! `stagnant_speed` for `dead_ball_s`) is served again without a goal. The table hands
+//! out the whole state; a run trained with `observation.hide_black_rods` hides the other
+//! side's rods from itself ([`Contestant::policy`]), whichever side it plays.
 //!
 //! Kick-off: every serve draws the ball from the table's own start distribution (for
 //! `reference`, at rest 4 cm on yellow's side of the centre line, by yellow's midfield),
@@ -197,6 +199,7 @@ pub fn match_table(table: &FoosballConfig, rules: &MatchRules) -> FoosballConfig
     t.rules.no_progress_steps = u32::MAX;
     t.rules.stagnant_steps = ((rules.dead_ball_s / t.agent_dt()).ceil() as u32).max(1);
     t.max_episode_steps = u32::MAX;
+    t.observation.hide_black_rods = false;
     t
 }
 

@@ -2,7 +2,8 @@
 //! `trajectories.bin` that `evaluate` wrote (the planner's episodes on seeds of their
 //! own, against one opponent or another, say), checked
 //! against the run's held-out seeds, its world-frame states read in the run's ball frame
-//! (what the agent observes) and handed to the agent. They are read again on a
+//! with what its observation hides hidden (what the agent observes) and handed to the
+//! agent. They are read again on a
 //! resume (a checkpoint does not hold them).
 
 use crate::config::RunConfig;
@@ -70,7 +71,11 @@ pub fn give_demonstrations(
             let rows: Vec<f32> = t
                 .obs
                 .chunks_exact(OBS_DIM)
-                .flat_map(|s| in_ball_frame(s.try_into().expect("a full row"), frame))
+                .flat_map(|s| {
+                    let mut row = in_ball_frame(s.try_into().expect("a full row"), frame);
+                    config.env.observation.conceal(&mut row);
+                    row
+                })
                 .collect();
             episodes.push((rows, t.actions, t.rewards));
         }

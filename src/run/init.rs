@@ -44,7 +44,12 @@ pub fn init_networks(config: &RunConfig, agent: &mut dyn Agent) -> Result<(), St
             config.hidden()
         )));
     }
-    if saved.env.observation != config.env.observation {
+    // Hiding black's rods zeroes inputs of the same width: the networks carry over.
+    let seen = foosball_env::ObservationConfig {
+        hide_black_rods: config.env.observation.hide_black_rods,
+        ..saved.env.observation
+    };
+    if seen != config.env.observation {
         return Err(refuse("it was trained on another observation".into()));
     }
     fits(&saved.env, &config.env).map_err(refuse)?;

@@ -3,7 +3,9 @@
 
 use foosball_rl::env::config::SpinRule;
 use foosball_rl::env::geometry::{BALL_RADIUS, GOAL_LINE_Y};
-use foosball_rl::env::layout::{ACTION_DIM, BALL_POS, OBS_DIM, ROD_ANGLE, ROD_SLIDE, action_turn};
+use foosball_rl::env::layout::{
+    ACTION_DIM, BALL_POS, OBS_DIM, ROD_ANGLE, ROD_SLIDE, action_turn, black_rod_inputs,
+};
 use foosball_rl::env::{
     EndReason, Env, EnvError, EnvRng, FoosballConfig, FoosballEnv, OpponentKind, Preset,
 };
@@ -70,6 +72,40 @@ fn rod_commands_show_up_in_the_observation() {
             .iter()
             .all(|v| v.abs() < 1e-3)
     );
+}
+
+#[test]
+fn hidden_black_rods_read_zero_and_change_nothing_else() {
+    // Black moves at random, so its rods have values to hide.
+    let mut seen = FoosballConfig::preset(Preset::Reference);
+    seen.opponent = OpponentKind::Random;
+    let mut hidden = seen.clone();
+    hidden.observation.hide_black_rods = true;
+    let (mut a, mut b) = (
+        FoosballEnv::new(seen).unwrap(),
+        FoosballEnv::new(hidden).unwrap(),
+    );
+    let (mut full, mut blind) = (a.reset(Some(5)), b.reset(Some(5)));
+    let black: Vec<usize> = black_rod_inputs().collect();
+    let mut rng = EnvRng::seed_from_u64(1);
+    let mut moved = false;
+    for _ in 0..40 {
+        for i in 0..OBS_DIM {
+            let expected = if black.contains(&i) { 0.0 } else { full[i] };
+            assert_eq!(blind[i], expected, "observation value {i}");
+        }
+        moved |= black.iter().any(|&i| full[i] != 0.0);
+        let action: Vec<f32> = (0..ACTION_DIM)
+            .map(|_| rng.random_range(-1.0..1.0))
+            .collect();
+        let (x, y) = (a.step(&action).unwrap(), b.step(&action).unwrap());
+        assert_eq!(x.1.reward, y.1.reward);
+        (full, blind) = match x.1.done() {
+            true => (a.reset(Some(6)), b.reset(Some(6))),
+            false => (x.0, y.0),
+        };
+    }
+    assert!(moved, "black's rods never left neutral: nothing was hidden");
 }
 
 #[test]

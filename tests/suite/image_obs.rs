@@ -23,6 +23,7 @@ fn image_config(width: u32, height: u32, grayscale: bool, frame_stack: u32) -> F
             height,
             grayscale,
             frame_stack,
+            hide_black_rods: false,
         },
         ..FoosballConfig::default()
     }

@@ -37,6 +37,7 @@ impl Block {
             height: height.max(1) as u32,
             grayscale: true,
             frame_stack: 1,
+            hide_black_rods: false,
         };
         Self {
             picture: FrameStack::new(config),

@@ -307,7 +307,10 @@ impl FoosballEnv {
         }
         match self.frames.as_mut() {
             // The state in the ball frame; pictures are drawn from world coordinates.
-            None => out.copy_from_slice(&in_ball_frame(&seen, self.config.ball_frame)),
+            None => {
+                out.copy_from_slice(&in_ball_frame(&seen, self.config.ball_frame));
+                self.config.observation.conceal(out);
+            }
             Some(frames) => {
                 if first {
                     frames.reset(&seen);

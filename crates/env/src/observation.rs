@@ -11,7 +11,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::config_error::ConfigError;
-use crate::layout::OBS_DIM;
+use crate::layout::{OBS_DIM, black_rod_inputs};
 use crate::render::{Frame, Renderer};
 
 /// The kind of observation.
@@ -39,6 +39,11 @@ pub struct ObservationConfig {
     pub grayscale: bool,
     /// Frames stacked, oldest first.
     pub frame_stack: u32,
+    /// State only: black's 16 rod values (slides, slide velocities, angles, angular
+    /// velocities; [`crate::layout::black_rod_inputs`]) read 0, so the policy plays on the
+    /// ball and its own rods and is never thrown by opponents' rods it did not train
+    /// against. Opponents still see the whole table.
+    pub hide_black_rods: bool,
 }
 
 impl Default for ObservationConfig {
@@ -50,6 +55,7 @@ impl Default for ObservationConfig {
             height: 84,
             grayscale: true,
             frame_stack: 4,
+            hide_black_rods: false,
         }
     }
 }
@@ -78,6 +84,14 @@ impl ObservationConfig {
         }
     }
 
+    /// Hides from a state observation (38 values) what `hide_black_rods` hides: black's
+    /// rod values set to 0; nothing otherwise.
+    pub fn conceal(&self, state: &mut [f32]) {
+        if self.hide_black_rods {
+            black_rod_inputs().for_each(|i| state[i] = 0.0);
+        }
+    }
+
     /// Checks the image settings (also under `state`, so a file stays valid when its
     /// kind is switched); keys relative to the section.
     pub fn validate(&self) -> Result<(), ConfigError> {
@@ -93,6 +107,12 @@ impl ObservationConfig {
             return Err(ConfigError::new(
                 "frame_stack",
                 format!("must be 1 to {MAX_STACK} frames, got {}", self.frame_stack),
+            ));
+        }
+        if self.hide_black_rods && self.kind == ObservationKind::Image {
+            return Err(ConfigError::new(
+                "hide_black_rods",
+                "hides values of the state observation; pictures show every rod",
             ));
         }
         Ok(())
@@ -235,5 +255,13 @@ mod tests {
         .validate()
         .unwrap_err();
         assert_eq!(e.key, "frame_stack");
+        let e = ObservationConfig {
+            kind: ObservationKind::Image,
+            hide_black_rods: true,
+            ..ok
+        }
+        .validate()
+        .unwrap_err();
+        assert_eq!(e.key, "hide_black_rods");
     }
 }
