@@ -116,7 +116,10 @@ impl fmt::Display for Contestant {
                 Ok(())
             }
             Contestant::Held { player, rods } => {
-                let names: Vec<&str> = rods.iter().map(|&r| RODS[r].name).collect();
+                let names: Vec<&str> = rods
+                    .iter()
+                    .map(|&r| RODS.get(r).map_or("?", |rod| rod.name))
+                    .collect();
                 write!(f, "{player}+hold={}", names.join(","))
             }
         }
