@@ -84,6 +84,7 @@ pub fn time_budget(config: &RunConfig) -> Result<TimeBudget, TrainError> {
             final_obs: vec![None],
             terminated: &no,
             truncated: &no,
+            absorbing: vec![false],
         });
         let before = (Instant::now(), agent.gradient_steps());
         agent.update(1.0);

@@ -2,17 +2,18 @@
 //! `trajectories.bin` that `evaluate` wrote (the planner's episodes on seeds of their
 //! own, against one opponent or another, say), checked
 //! against the run's held-out seeds, its world-frame states read in the run's ball frame
-//! with what its observation hides hidden (what the agent observes) and handed to the
+//! with what its observation hides hidden (what the agent observes), each terminated
+//! episode marked absorbing when its last state has the ball in a goal, and handed to the
 //! agent. They are read again on a
 //! resume (a checkpoint does not hold them).
 
 use crate::config::RunConfig;
 use crate::play::trajectories::read_trajectories;
 use foosball_algos::{Agent, Demonstration};
-use foosball_env::ObservationKind;
 use foosball_env::foosball::in_ball_frame;
 use foosball_env::layout::OBS_DIM;
 use foosball_env::seeding::{EVAL_ENVS, TEST_ENVS, derive_seed};
+use foosball_env::{ObservationKind, ball_in_a_goal};
 use std::collections::HashSet;
 use std::path::Path;
 
@@ -77,16 +78,24 @@ pub fn give_demonstrations(
                     row
                 })
                 .collect();
-            episodes.push((rows, t.actions, t.rewards));
+            // A terminated episode ends absorbing when its last state has the ball in a
+            // goal (under the paper's rules it lies there until it is still).
+            let absorbing = t
+                .obs
+                .chunks_exact(OBS_DIM)
+                .last()
+                .is_some_and(|s| ball_in_a_goal(&config.env, s));
+            episodes.push((rows, t.actions, t.rewards, absorbing));
         }
     }
     let demos: Vec<Demonstration<'_>> = episodes
         .iter()
-        .map(|(obs, actions, rewards)| Demonstration {
+        .map(|(obs, actions, rewards, absorbing)| Demonstration {
             obs,
             actions,
             rewards,
             terminated: rewards.len() < limit,
+            absorbing: *absorbing,
         })
         .collect();
     agent

@@ -3,7 +3,9 @@
 //! end_on_goal still ends on a goal, presets load from TOML with overrides, and the
 //! scripted shooter scores where the ball starts in reach.
 
-use foosball_rl::env::{EndReason, Env, FoosballConfig, FoosballEnv, Preset};
+use foosball_rl::env::{
+    EndReason, Env, FoosballConfig, FoosballEnv, Preset, StepInfo, ball_in_a_goal,
+};
 use foosball_rl::play::scripted::ScriptedPolicy;
 
 use crate::common;
@@ -34,6 +36,16 @@ fn under_the_paper_rules_a_ball_in_the_goal_earns_beta_every_step() {
             );
             assert!(t.reward > 1290.0);
         }
+        // It ends absorbing: the ball stays in the goal (what `absorbing_ends` values),
+        // and the recorded state says so too (what demonstrations are read by).
+        assert!(ts.last().unwrap().info.absorbing(), "{preset:?}");
+        assert!(ball_in_a_goal(env.config(), env.state().unwrap()));
+        // A ball at rest on the table ends the same way, not absorbing.
+        let mut env = placed_in(preset, [0.0, 20.0], [0.0, 0.0]);
+        let ts = play_out(&mut env, 100);
+        let last = ts.last().unwrap();
+        assert!(last.terminated && !last.info.absorbing(), "{:?}", last.info);
+        assert!(!ball_in_a_goal(env.config(), env.state().unwrap()));
     }
 }
 

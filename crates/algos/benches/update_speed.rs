@@ -49,6 +49,7 @@ fn feed(agent: &mut dyn Agent, n: usize, rng: &mut ChaCha8Rng) {
             final_obs: vec![None],
             terminated: &[false],
             truncated: &[false],
+            absorbing: vec![false],
         });
     }
 }

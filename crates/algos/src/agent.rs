@@ -36,6 +36,9 @@ pub struct Experience<'a> {
     pub terminated: &'a [bool],
     /// Episode was cut by a time limit or fault, `[n_envs]`.
     pub truncated: &'a [bool],
+    /// The state reached is absorbing (the env's `StepInfo::absorbing`), `[n_envs]`;
+    /// read only where `terminated`.
+    pub absorbing: Vec<bool>,
 }
 
 impl Experience<'_> {

@@ -142,6 +142,15 @@ pub struct OffPolicyConfig {
     /// (default): no demonstrations, SB3's sampling. One-step returns only.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub demo_share: Option<f32>,
+    /// Value a terminated step that reached an absorbing state (the env's
+    /// `StepInfo::absorbing`; foosball: the ball lying in a goal, which under the paper's
+    /// rules ends the episode some steps after the goal) as that state paying the step's
+    /// reward forever: stored as `r / (1 - gamma)` (reward scale included), in the
+    /// replay and in the demonstrations. False (default, SB3's): the end pays nothing
+    /// more, so under `reference` a goal is worth about 22 steps of 1000 against a
+    /// dribble's 300 per step for as long as it lasts. Needs `gamma < 1`.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub absorbing_ends: bool,
 }
 
 impl Default for OffPolicyConfig {
@@ -156,6 +165,7 @@ impl Default for OffPolicyConfig {
             reward_scale: 1.0,
             n_step: 1,
             demo_share: None,
+            absorbing_ends: false,
         }
     }
 }
@@ -197,5 +207,27 @@ impl OffPolicyConfig {
     /// The critics' discount of the bootstrapped value: `gamma^n_step`.
     pub fn bootstrap_discount(&self, gamma: f32) -> f32 {
         gamma.powi(self.n_step as i32)
+    }
+
+    /// What the replay stores for reward `r` of a step: `reward_scale * r`, and where the
+    /// step `ends_absorbing` under `absorbing_ends`, that over `1 - gamma` (the
+    /// discounted sum of the same reward at every later step).
+    pub fn stored_reward(&self, r: f32, ends_absorbing: bool, gamma: f32) -> f32 {
+        let scaled = r * self.reward_scale;
+        if self.absorbing_ends && ends_absorbing {
+            scaled / (1.0 - gamma)
+        } else {
+            scaled
+        }
+    }
+
+    /// Refuses `absorbing_ends` with `gamma = 1` (the end's value would be infinite);
+    /// the algorithms call it with their discount.
+    pub fn validate_with_gamma(&self, gamma: f32) -> Result<(), ConfigError> {
+        ensure(
+            !self.absorbing_ends || gamma < 1.0,
+            "absorbing_ends",
+            "needs gamma < 1 (an absorbing end is worth r / (1 - gamma))",
+        )
     }
 }

@@ -18,18 +18,23 @@ pub struct Demonstration<'a> {
     pub rewards: &'a [f32],
     /// The episode ended in a terminal state on its last step.
     pub terminated: bool,
+    /// That terminal state is absorbing (the env's `StepInfo::absorbing`: for foosball
+    /// the ball lying in a goal); ignored when not `terminated`.
+    pub absorbing: bool,
 }
 
 /// The transitions of `episodes` in a buffer of exactly their number:
-/// `(s_t, a_t, reward_scale * r_t, s_(t+1))`. The last step of a terminated episode is
-/// terminal (its next state never enters a target); the last step of a cut one is
-/// dropped, its next state being unknown. An error names the episode whose widths do not
-/// fit `obs_dim`/`action_dim` or that holds a non-finite value.
+/// `(s_t, a_t, store(r_t, ends_absorbing), s_(t+1))`, `store` being what the replay does
+/// to a reward (`OffPolicyConfig::stored_reward`; `ends_absorbing` only on the last step
+/// of a terminated, absorbing episode). The last step of a terminated episode is terminal
+/// (its next state never enters a target); the last step of a cut one is dropped, its
+/// next state being unknown. An error names the episode whose widths do not fit
+/// `obs_dim`/`action_dim` or that holds a non-finite value.
 pub fn demonstration_buffer(
     episodes: &[Demonstration<'_>],
     obs_dim: usize,
     action_dim: usize,
-    reward_scale: f32,
+    store: impl Fn(f32, bool) -> f32,
 ) -> Result<ReplayBuffer, String> {
     let mut rows = 0;
     for (k, e) in episodes.iter().enumerate() {
@@ -63,7 +68,7 @@ pub fn demonstration_buffer(
             buffer.push(
                 &e.obs[i * obs_dim..(i + 1) * obs_dim],
                 &e.actions[i * action_dim..(i + 1) * action_dim],
-                e.rewards[i] * reward_scale,
+                store(e.rewards[i], last && e.absorbing),
                 &e.obs[next * obs_dim..(next + 1) * obs_dim],
                 last,
                 false,
@@ -81,7 +86,8 @@ mod tests {
 
     #[test]
     fn transitions_link_consecutive_states_end_terminal_or_drop_the_cut_step() {
-        // Observation k is [k]; action k is [-k / 10]; reward k is k + 1.
+        // Observation k is [k]; action k is [-k / 10]; reward k is k + 1; both episodes
+        // end absorbing, which counts only for the terminated one's last step.
         let obs: Vec<f32> = (0..3).map(|k| k as f32).collect();
         let actions: Vec<f32> = (0..3).map(|k| -(k as f32) / 10.0).collect();
         let rewards: Vec<f32> = (0..3).map(|k| k as f32 + 1.0).collect();
@@ -90,12 +96,14 @@ mod tests {
             actions: &actions,
             rewards: &rewards,
             terminated: true,
+            absorbing: true,
         };
         let cut = Demonstration {
             terminated: false,
             ..ended
         };
-        let buffer = demonstration_buffer(&[ended, cut], 1, 1, 0.5).unwrap();
+        let store = |r: f32, absorbing: bool| if absorbing { 100.0 * r } else { 0.5 * r };
+        let buffer = demonstration_buffer(&[ended, cut], 1, 1, store).unwrap();
         assert_eq!(buffer.len(), 5);
         assert_eq!(buffer.capacity(), 5);
         let batch = buffer.sample(400, &mut ChaCha8Rng::seed_from_u64(0));
@@ -118,7 +126,7 @@ mod tests {
             vec![
                 (0.0, 0.0, 0.5, 1.0, 0.0),
                 (1.0, -0.1, 1.0, 2.0, 0.0),
-                (2.0, -0.2, 1.5, 2.0, 1.0),
+                (2.0, -0.2, 300.0, 2.0, 1.0),
             ]
         );
     }
@@ -130,8 +138,9 @@ mod tests {
             actions: &[0.5],
             rewards: &[1.0],
             terminated: true,
+            absorbing: false,
         };
-        let wide = demonstration_buffer(&[good, good], 1, 1, 1.0).unwrap_err();
+        let wide = demonstration_buffer(&[good, good], 1, 1, |r, _| r).unwrap_err();
         assert!(
             wide.contains("demonstration 0") && wide.contains("takes 1 and 1"),
             "{wide}"
@@ -141,14 +150,14 @@ mod tests {
             actions: &[f32::NAN],
             ..good
         };
-        let err = demonstration_buffer(&[nan], 1, 1, 1.0).unwrap_err();
+        let err = demonstration_buffer(&[nan], 1, 1, |r, _| r).unwrap_err();
         assert!(err.contains("non-finite"), "{err}");
         let one_cut = Demonstration {
             obs: &[0.0],
             terminated: false,
             ..good
         };
-        let err = demonstration_buffer(&[one_cut], 1, 1, 1.0).unwrap_err();
+        let err = demonstration_buffer(&[one_cut], 1, 1, |r, _| r).unwrap_err();
         assert!(err.contains("no transition"), "{err}");
     }
 }

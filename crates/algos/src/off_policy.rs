@@ -1,5 +1,5 @@
-//! What SAC and TD3 share: the replay buffer (rewards stored times `reward_scale`, summed
-//! over `n_step` steps), demonstrations mixed into each minibatch at `demo_share`,
+//! What SAC and TD3 share: the replay buffer (rewards stored times `reward_scale`, an
+//! absorbing end's over `1 - gamma` under `absorbing_ends`, summed over `n_step` steps), demonstrations mixed into each minibatch at `demo_share`,
 //! uniform random actions before `learning_starts`, and the
 //! train-every-`train_freq`-steps schedule. The algorithm itself is an
 //! [`OffPolicyLearner`].
@@ -158,8 +158,12 @@ impl<L: OffPolicyLearner> Agent for OffPolicy<L> {
         let (o, a, n) = (self.obs_dim(), self.action_dim(), self.schedule.n_step);
         self.windows.resize(step.len(), VecDeque::new());
         for i in 0..step.len() {
-            let reward = step.rewards[i] * self.schedule.reward_scale;
             let (terminated, truncated) = (step.terminated[i], step.truncated[i]);
+            let reward = self.schedule.stored_reward(
+                step.rewards[i],
+                terminated && step.absorbing[i],
+                self.gamma,
+            );
             if n == 1 {
                 // One-step returns need no window (and no copy of the row).
                 let (obs, action) = (
@@ -284,7 +288,8 @@ impl<L: OffPolicyLearner> Agent for OffPolicy<L> {
             );
         }
         let (o, a) = (self.obs_dim, self.action_dim);
-        let buffer = demonstration_buffer(episodes, o, a, self.schedule.reward_scale)?;
+        let store = |r: f32, absorbing: bool| self.schedule.stored_reward(r, absorbing, self.gamma);
+        let buffer = demonstration_buffer(episodes, o, a, store)?;
         let rows = buffer.len();
         self.demos = Some(buffer);
         Ok(rows)
@@ -358,6 +363,19 @@ mod tests {
         }
     }
 
+    /// A recorder on a 1-dim env with 1-dim actions, discount `gamma`, rng from `seed`.
+    fn recorder(schedule: OffPolicyConfig, gamma: f32, seed: u64) -> OffPolicy<Recorder> {
+        let lr = LrSchedule::Constant(1e-3);
+        let rng = ChaCha8Rng::seed_from_u64(seed);
+        OffPolicy::new(
+            Recorder::default(),
+            (ObsShape::Vector(1), 1),
+            (schedule, gamma),
+            lr,
+            rng,
+        )
+    }
+
     #[test]
     fn the_replay_stores_rewards_times_reward_scale() {
         let schedule = OffPolicyConfig {
@@ -366,15 +384,7 @@ mod tests {
             reward_scale: 0.25,
             ..OffPolicyConfig::default()
         };
-        let lr = LrSchedule::Constant(1e-3);
-        let rng = ChaCha8Rng::seed_from_u64(0);
-        let mut agent = OffPolicy::new(
-            Recorder::default(),
-            (ObsShape::Vector(1), 1),
-            (schedule, 0.99),
-            lr,
-            rng,
-        );
+        let mut agent = recorder(schedule, 0.99, 0);
         for k in 0..4 {
             let obs = [k as f32];
             agent.observe(&Experience {
@@ -385,6 +395,7 @@ mod tests {
                 final_obs: vec![None],
                 terminated: &[false],
                 truncated: &[false],
+                absorbing: vec![false],
             });
         }
         agent.update(1.0);
@@ -407,6 +418,53 @@ mod tests {
     }
 
     #[test]
+    fn an_absorbing_end_is_stored_as_its_reward_forever_only_where_it_terminates() {
+        for on in [false, true] {
+            let schedule = OffPolicyConfig {
+                learning_starts: 0,
+                batch_size: 64,
+                reward_scale: 0.5,
+                absorbing_ends: on,
+                ..OffPolicyConfig::default()
+            };
+            let mut agent = recorder(schedule, 0.9, 1);
+            // Reward 10 each: absorbing but going on; terminated absorbing; terminated.
+            for (k, terminated, absorbing) in [(0, false, true), (1, true, true), (2, true, false)]
+            {
+                let obs = [k as f32];
+                agent.observe(&Experience {
+                    obs: &obs,
+                    actions: &[0.0],
+                    rewards: &[10.0],
+                    next_obs: &obs,
+                    final_obs: vec![terminated.then_some(&obs[..])],
+                    terminated: &[terminated],
+                    truncated: &[false],
+                    absorbing: vec![absorbing],
+                });
+            }
+            agent.update(1.0);
+            let by_obs = |k: f32| {
+                let rows = &agent.learner().rows;
+                let r: Vec<f32> = rows.iter().filter(|r| r.0 == k).map(|r| r.1).collect();
+                assert!(!r.is_empty(), "row {k} never sampled");
+                r[0]
+            };
+            // 0.5 * 10 = 5; absorbing and terminated: 5 / (1 - 0.9) = 50.
+            let expected = if on { 50.0 } else { 5.0 };
+            assert_eq!([by_obs(0.0), by_obs(2.0)], [5.0, 5.0]);
+            assert!((by_obs(1.0) - expected).abs() < 1e-3, "{}", by_obs(1.0));
+        }
+        let on = OffPolicyConfig {
+            absorbing_ends: true,
+            ..OffPolicyConfig::default()
+        };
+        let refused = on.validate_with_gamma(1.0).unwrap_err().to_string();
+        assert!(refused.contains("absorbing_ends"), "{refused}");
+        assert!(on.validate_with_gamma(0.99).is_ok());
+    }
+
+    #[test]
     fn demo_share_fills_the_leading_rows_of_every_minibatch_with_demonstrations() {
         let schedule = OffPolicyConfig {
             learning_starts: 0,
@@ -414,17 +472,7 @@ mod tests {
             demo_share: Some(0.25),
             ..OffPolicyConfig::default()
         };
-        let new = |schedule: OffPolicyConfig| {
-            let rng = ChaCha8Rng::seed_from_u64(2);
-            let lr = LrSchedule::Constant(1e-3);
-            OffPolicy::new(
-                Recorder::default(),
-                (ObsShape::Vector(1), 1),
-                (schedule, 0.9),
-                lr,
-                rng,
-            )
-        };
+        let new = |schedule: OffPolicyConfig| recorder(schedule, 0.9, 2);
         let mut plain = new(OffPolicyConfig {
             demo_share: None,
             ..schedule.clone()
@@ -434,6 +482,7 @@ mod tests {
             actions: &[0.5, 0.5],
             rewards: &[7.0, 7.0],
             terminated: true,
+            absorbing: false,
         };
         let refused = plain.set_demonstrations(&[demo]).unwrap_err();
         assert!(refused.contains("demo_share"), "{refused}");
@@ -466,6 +515,7 @@ mod tests {
             final_obs: vec![(ended.0 || ended.1).then_some(&next[..])],
             terminated: &[ended.0],
             truncated: &[ended.1],
+            absorbing: vec![false],
         });
     }
 
@@ -477,12 +527,7 @@ mod tests {
             n_step: 3,
             ..OffPolicyConfig::default()
         };
-        let new = || {
-            let rng = ChaCha8Rng::seed_from_u64(1);
-            let lr = LrSchedule::Constant(1e-3);
-            let shape = (ObsShape::Vector(1), 1);
-            OffPolicy::new(Recorder::default(), shape, (schedule.clone(), 0.5), lr, rng)
-        };
+        let new = || recorder(schedule.clone(), 0.5, 1);
         let mut agent = new();
         for k in 0..4 {
             step(&mut agent, k, k as f32 + 1.0, (false, false));

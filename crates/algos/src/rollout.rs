@@ -2,7 +2,7 @@
 //! evaluation episodes.
 
 use crate::agent::{ActMode, Agent, Experience, Metrics};
-use foosball_env::{Env, EnvError, Transition, VecEnv, VecEnvError};
+use foosball_env::{Env, EnvError, StepInfo, Transition, VecEnv, VecEnvError};
 use rayon::prelude::*;
 
 /// One finished episode.
@@ -90,6 +90,7 @@ impl<E: Env> Collector<E> {
             final_obs: (0..n).map(|i| step.final_observation(i)).collect(),
             terminated: step.terminated,
             truncated: step.truncated,
+            absorbing: step.infos.iter().map(StepInfo::absorbing).collect(),
         };
         agent.observe(&experience);
         for i in 0..n {

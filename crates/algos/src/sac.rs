@@ -86,6 +86,7 @@ impl SacConfig {
         check_gamma(self.gamma)?;
         self.off_policy
             .validate()
+            .and_then(|()| self.off_policy.validate_with_gamma(self.gamma))
             .map_err(|e| e.under("off_policy"))?;
         ensure(
             self.init_alpha > 0.0 && self.init_alpha.is_finite(),
@@ -503,6 +504,7 @@ mod tests {
                 final_obs: vec![None],
                 terminated: &[false],
                 truncated: &[false],
+                absorbing: vec![false],
             });
             agent.update(1.0);
         }

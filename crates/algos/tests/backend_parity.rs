@@ -65,6 +65,7 @@ fn feed(agent: &mut dyn Agent, n: usize, seed: u64) {
             final_obs: vec![None],
             terminated: &[rng.random_bool(0.05)],
             truncated: &[false],
+            absorbing: vec![false],
         });
         obs = next;
     }

@@ -35,6 +35,19 @@ impl<I> Transition<I> {
     }
 }
 
+/// What an environment's per-step details say to a learner.
+pub trait StepInfo {
+    /// The step reached an absorbing state: one that, left alone, pays this step's reward
+    /// at every later step (foosball: the ball lying in a goal). Read only on a
+    /// terminated step; learners may value such an end as that reward forever
+    /// (`off_policy.absorbing_ends`). Default: no state is absorbing.
+    fn absorbing(&self) -> bool {
+        false
+    }
+}
+
+impl StepInfo for () {}
+
 /// A reinforcement-learning environment with flat `f32` observations and actions.
 ///
 /// Observations are written into caller-owned slices of length [`Env::obs_dim`] so that
@@ -42,7 +55,7 @@ impl<I> Transition<I> {
 /// allocating conveniences.
 pub trait Env: Send {
     /// Per-step details (e.g. goals scored); `Default` is the value after a reset.
-    type Info: Clone + Default + Send + Sync + core::fmt::Debug;
+    type Info: StepInfo + Clone + Default + Send + Sync + core::fmt::Debug;
 
     /// Length of an observation.
     fn obs_dim(&self) -> usize;

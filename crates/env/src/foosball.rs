@@ -19,7 +19,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::EnvRng;
 use crate::config::{ActionMap, BallFrame, ConfigError, EpisodeRules, FoosballConfig, SpinRule};
-use crate::env::{Env, EnvError, Transition, check_action};
+use crate::env::{Env, EnvError, StepInfo, Transition, check_action};
 use crate::geometry::{self, NUM_RODS};
 use crate::layout::{
     self, ACTION_DIM, BALL_POS, BALL_VEL, OBS_DIM, ROD_ANGLE, ROD_ANGLE_VEL, ROD_SLIDE,
@@ -123,6 +123,15 @@ pub struct FoosballInfo {
     /// Serves after the kick-off in this episode so far (`rules.serve_again`); this step
     /// ended a point and served again when it grew.
     pub serves: u32,
+}
+
+impl StepInfo for FoosballInfo {
+    /// The ball lies in a goal, where it stays: a terminated step's reward (beta in
+    /// black's goal, minus `conceded_penalty` in yellow's) would be paid on every later
+    /// step.
+    fn absorbing(&self) -> bool {
+        self.in_goal || self.in_own_goal
+    }
 }
 
 impl FoosballInfo {
@@ -389,6 +398,15 @@ pub fn from_ball_frame(seen: &[f32; OBS_DIM], frame: BallFrame) -> [f32; OBS_DIM
 fn goals(x: f32, y: f32, line_y: f32, own_line_y: f32) -> (bool, bool) {
     let in_mouth = x.abs() <= geometry::GOAL_HALF_WIDTH;
     (in_mouth && y >= line_y, in_mouth && y <= own_line_y)
+}
+
+/// Whether the ball of a world `state` (the 38 values of [`layout`], as recorded
+/// trajectories hold them) lies in either goal under `config`'s goal lines: the test
+/// behind [`FoosballInfo::in_goal`] and [`FoosballInfo::in_own_goal`].
+pub fn ball_in_a_goal(config: &FoosballConfig, state: &[f32]) -> bool {
+    let (x, y) = (state[BALL_POS.start], state[BALL_POS.start + 1]);
+    let (black, yellow) = goals(x, y, config.goal_line_world(), config.own_goal_line_world());
+    black || yellow
 }
 
 /// Where the ball is: in a goal that ends the episode, out of the table (or

@@ -36,8 +36,8 @@ pub mod table;
 pub mod vec_env;
 
 pub use config::{ConfigError, FoosballConfig, OpponentKind, Preset, Randomization, RodMount};
-pub use env::{Env, EnvError, Transition};
-pub use foosball::{EndReason, FoosballEnv, FoosballInfo};
+pub use env::{Env, EnvError, StepInfo, Transition};
+pub use foosball::{EndReason, FoosballEnv, FoosballInfo, ball_in_a_goal};
 pub use observation::{ObservationConfig, ObservationKind};
 pub use opponent::Opponent;
 pub use pendulum::Pendulum;
