@@ -3,7 +3,8 @@
 //! (`leaderboard.json`, `leaderboard.md`, `heatmap.png`, `index.html`).
 //!
 //! The same command again plays only the missing matches; naming more agents adds them
-//! without replaying the pairs already played. Settings not given are the league's.
+//! without replaying the pairs already played, and a larger `--matches-per-pair` adds
+//! rounds to every pair. Settings not given are the league's.
 
 use clap::Parser;
 use foosball_rl::cli::finish;
@@ -30,7 +31,8 @@ struct Args {
     /// `@best`/`@last` (default last) and `~sampled` (comma- or space-separated).
     #[arg(long, value_delimiter = ',', num_args = 1..)]
     agents: Vec<String>,
-    /// Matches per pair, even: half with each agent on yellow (default 10).
+    /// Matches per pair, even: half with each agent on yellow (default 10, or the
+    /// league's own); more than an existing league's plays only the new rounds.
     #[arg(long)]
     matches_per_pair: Option<u32>,
     /// Goals that win a match (default 5).

@@ -3,7 +3,8 @@
 //! (`derive_seed(seed, MATCHES, r)`), so pairs meet the same serves and sides swap on
 //! each. Results go to `matches.csv` after every batch, rewritten atomically; the same
 //! command again plays only the matches that are missing, so an interrupted league
-//! loses nothing and new agents join without replaying the old pairs.
+//! loses nothing, new agents join without replaying the old pairs, and more matches per
+//! pair add only the new rounds.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -102,7 +103,8 @@ pub struct LeagueDir {
 
 impl LeagueDir {
     /// Opens `dir`, creating it with `new` when it holds no league. An existing league
-    /// keeps its settings: `new`'s agents are added, anything else that differs is
+    /// keeps its settings: `new`'s agents are added, a larger `matches_per_pair` adds
+    /// rounds to every pair (a smaller one is refused), anything else that differs is
     /// refused by key.
     pub fn open(dir: &Path, new: League) -> Result<Self, String> {
         let path = dir.join("league.toml");
@@ -111,12 +113,18 @@ impl LeagueDir {
                 std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
             let mut old: League =
                 toml::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+            if new.matches_per_pair < old.matches_per_pair {
+                return Err(format!(
+                    "{}: the league plays {} matches per pair; `matches_per_pair` can grow \
+                     (the new rounds are played), not shrink to {}",
+                    path.display(),
+                    old.matches_per_pair,
+                    new.matches_per_pair
+                ));
+            }
+            old.matches_per_pair = new.matches_per_pair;
             for (key, same) in [
                 ("seed", old.seed == new.seed),
-                (
-                    "matches_per_pair",
-                    old.matches_per_pair == new.matches_per_pair,
-                ),
                 ("anchor", old.anchor == new.anchor),
                 ("match", old.rules == new.rules),
                 ("table", old.table == new.table),

@@ -88,6 +88,31 @@ fn a_league_resumes_and_grows_without_replaying() {
     }
     let html = std::fs::read_to_string(dir.join("index.html")).unwrap();
     assert_eq!(html.matches("<tr><td>").count(), 3);
+
+    // More matches per pair: only the new round of each pair is played, the old matches
+    // stay, and the whole is what a league of 4 per pair plays from the start.
+    let mut more = league(&[]);
+    more.matches_per_pair = 4;
+    let mut l = LeagueDir::open(&dir, more.clone()).unwrap();
+    assert_eq!(l.league.matches_per_pair, 4);
+    assert_eq!(l.pending().len(), 6);
+    assert!(l.pending().iter().all(|&(_, _, round)| round == 1));
+    l.play(2, |_, _| {}).unwrap();
+    let grown = std::fs::read_to_string(dir.join("matches.csv")).unwrap();
+    assert!(grown.starts_with(&after), "old matches kept as they were");
+    let at_once = scratch("league-four-at-once");
+    let mut all = more;
+    all.agents = ["shooter", "zero", "random"].map(String::from).to_vec();
+    LeagueDir::open(&at_once, all)
+        .unwrap()
+        .play(2, |_, _| {})
+        .unwrap();
+    let four = std::fs::read_to_string(at_once.join("matches.csv")).unwrap();
+    assert_eq!(sorted(&grown), sorted(&four));
+    assert!(Leaderboard::of(&l).standings.iter().all(|s| s.matches == 8));
+    // Fewer: refused, naming the key.
+    let e = LeagueDir::open(&dir, league(&[])).err().unwrap();
+    assert!(e.contains("`matches_per_pair` can grow"), "{e}");
 }
 
 #[test]
