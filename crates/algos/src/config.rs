@@ -171,8 +171,9 @@ impl Default for OffPolicyConfig {
 }
 
 impl OffPolicyConfig {
-    /// Rejects zero sizes and coefficients outside their ranges.
-    pub fn validate(&self) -> Result<(), ConfigError> {
+    /// Rejects zero sizes and coefficients outside their ranges, and `absorbing_ends` with
+    /// the algorithm's `gamma` at 1 (an absorbing end would be worth infinitely much).
+    pub fn validate(&self, gamma: f32) -> Result<(), ConfigError> {
         ensure(self.buffer_size > 0, "buffer_size", "must be positive")?;
         ensure(self.batch_size > 0, "batch_size", "must be positive")?;
         ensure(
@@ -201,6 +202,11 @@ impl OffPolicyConfig {
             self.demo_share.is_none() || self.n_step == 1,
             "demo_share",
             "takes one-step returns (n_step = 1)",
+        )?;
+        ensure(
+            !self.absorbing_ends || gamma < 1.0,
+            "absorbing_ends",
+            "needs gamma < 1 (an absorbing end is worth r / (1 - gamma))",
         )
     }
 
@@ -219,15 +225,5 @@ impl OffPolicyConfig {
         } else {
             scaled
         }
-    }
-
-    /// Refuses `absorbing_ends` with `gamma = 1` (the end's value would be infinite);
-    /// the algorithms call it with their discount.
-    pub fn validate_with_gamma(&self, gamma: f32) -> Result<(), ConfigError> {
-        ensure(
-            !self.absorbing_ends || gamma < 1.0,
-            "absorbing_ends",
-            "needs gamma < 1 (an absorbing end is worth r / (1 - gamma))",
-        )
     }
 }

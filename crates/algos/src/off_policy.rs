@@ -1,5 +1,6 @@
 //! What SAC and TD3 share: the replay buffer (rewards stored times `reward_scale`, an
-//! absorbing end's over `1 - gamma` under `absorbing_ends`, summed over `n_step` steps), demonstrations mixed into each minibatch at `demo_share`,
+//! absorbing end's over `1 - gamma` under `absorbing_ends`, summed over `n_step` steps),
+//! demonstrations mixed into each minibatch at `demo_share`,
 //! uniform random actions before `learning_starts`, and the
 //! train-every-`train_freq`-steps schedule. The algorithm itself is an
 //! [`OffPolicyLearner`].
@@ -410,7 +411,7 @@ mod tests {
             ..OffPolicyConfig::default()
         };
         assert!(
-            bad.validate()
+            bad.validate(0.99)
                 .unwrap_err()
                 .to_string()
                 .contains("reward_scale")
@@ -459,9 +460,9 @@ mod tests {
             absorbing_ends: true,
             ..OffPolicyConfig::default()
         };
-        let refused = on.validate_with_gamma(1.0).unwrap_err().to_string();
+        let refused = on.validate(1.0).unwrap_err().to_string();
         assert!(refused.contains("absorbing_ends"), "{refused}");
-        assert!(on.validate_with_gamma(0.99).is_ok());
+        assert!(on.validate(0.99).is_ok());
     }
 
     #[test]

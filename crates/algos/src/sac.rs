@@ -85,8 +85,7 @@ impl SacConfig {
         self.net.validate().map_err(|e| e.under("net"))?;
         check_gamma(self.gamma)?;
         self.off_policy
-            .validate()
-            .and_then(|()| self.off_policy.validate_with_gamma(self.gamma))
+            .validate(self.gamma)
             .map_err(|e| e.under("off_policy"))?;
         ensure(
             self.init_alpha > 0.0 && self.init_alpha.is_finite(),

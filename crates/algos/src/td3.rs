@@ -66,8 +66,7 @@ impl Td3Config {
         self.net.validate().map_err(|e| e.under("net"))?;
         check_gamma(self.gamma)?;
         self.off_policy
-            .validate()
-            .and_then(|()| self.off_policy.validate_with_gamma(self.gamma))
+            .validate(self.gamma)
             .map_err(|e| e.under("off_policy"))?;
         ensure(self.policy_delay > 0, "policy_delay", "must be positive")?;
         let non_negative = |x: f32| x.is_finite() && x >= 0.0;
