@@ -7,7 +7,7 @@ use clap::Parser;
 use foosball_rl::cli::finish;
 use foosball_rl::config::TestActions;
 use foosball_rl::play::contestant::Contestant;
-use foosball_rl::play::matches::{self, MatchRules, Tally, match_table};
+use foosball_rl::play::matches::{self, Kickoff, MatchRules, Tally, match_table};
 use foosball_rl::play::metrics::wilson_points;
 use foosball_rl::play::player::{Player, PlayerArgs};
 use std::path::PathBuf;
@@ -42,6 +42,10 @@ struct Args {
     /// With `--opponent`: the seed the serves derive from.
     #[arg(long, requires = "opponent", default_value_t = 0)]
     match_seed: u64,
+    /// With `--opponent`: who serves, `conceded` (ITSF: the side scored upon) or `yellow`
+    /// (every serve on yellow's side).
+    #[arg(long, requires = "opponent", default_value_t = Kickoff::Conceded)]
+    kickoff: Kickoff,
     /// With `--opponent`: hold these of the player's rods at neutral (`goalie`,
     /// `defence`, `midfield`, `attack`, comma separated), to find which rod's play lets
     /// goals in.
@@ -50,19 +54,17 @@ struct Args {
 }
 
 /// `player` against `opponent`: W-D-L, goals and the points share with its interval.
-fn head_to_head(
-    player: &Player,
-    opponent: &Contestant,
-    matches: u32,
-    seed: u64,
-    hold: Option<&str>,
-) -> Result<String, String> {
+fn head_to_head(player: &Player, opponent: &Contestant, args: &Args) -> Result<String, String> {
+    let (matches, seed, hold) = (args.matches, args.match_seed, args.hold.as_deref());
     if matches == 0 || matches % 2 == 1 {
         return Err(format!(
             "--matches: must be even and at least 2 (sides swap), got {matches}"
         ));
     }
-    let rules = MatchRules::default();
+    let rules = MatchRules {
+        kickoff: args.kickoff,
+        ..MatchRules::default()
+    };
     let table = match_table(player.env(), &rules);
     let me = match hold {
         Some(rods) => player.contestant().holding(rods)?,
@@ -85,7 +87,7 @@ fn head_to_head(
     Ok(format!(
         "{} against {opponent}: {matches} matches, {}-{}-{} (W-D-L), goals {}:{}, \
          points share {:.0} % [{:.0}, {:.0}] (95 % Wilson); spins per minute {:.2} vs {:.2}; \
-         as yellow (serving) {}, as black {}",
+         as yellow {}, as black {} (kick-off: {})",
         match hold {
             Some(rods) => format!("{} holding {rods}", player.describe()),
             None => player.describe(),
@@ -101,20 +103,15 @@ fn head_to_head(
         t.spins_per_minute(dt),
         o.spins_per_minute(dt),
         side(&as_yellow),
-        side(&as_black)
+        side(&as_black),
+        rules.kickoff
     ))
 }
 
 fn run(args: &Args) -> Result<String, String> {
     let player = Player::from_args(&args.player)?;
     if let Some(opponent) = &args.opponent {
-        return head_to_head(
-            &player,
-            opponent,
-            args.matches,
-            args.match_seed,
-            args.hold.as_deref(),
-        );
+        return head_to_head(&player, opponent, args);
     }
     let episodes = match args.episodes.unwrap_or(player.default_episodes()) {
         0 => return Err("--episodes must be positive".into()),

@@ -12,7 +12,7 @@ use foosball_rl::config::RunConfig;
 use foosball_rl::env::{FoosballConfig, Preset};
 use foosball_rl::league::leaderboard::Leaderboard;
 use foosball_rl::league::round_robin::{League, LeagueDir};
-use foosball_rl::play::matches::MatchRules;
+use foosball_rl::play::matches::{Kickoff, MatchRules};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -44,6 +44,10 @@ struct Args {
     /// Seconds a dead ball lies before it is served again (default 1).
     #[arg(long)]
     dead_ball: Option<f32>,
+    /// Who serves: `conceded` (ITSF: the side scored upon; default) or `yellow` (every
+    /// serve on yellow's side).
+    #[arg(long)]
+    kickoff: Option<Kickoff>,
     /// The table's preset (default reference).
     #[arg(long, conflicts_with = "config")]
     preset: Option<Preset>,
@@ -109,6 +113,7 @@ fn run(args: &Args) -> Result<String, String> {
             goals_to_win: args.goals.unwrap_or(defaults.rules.goals_to_win),
             time_limit_s: args.time_limit.unwrap_or(defaults.rules.time_limit_s),
             dead_ball_s: args.dead_ball.unwrap_or(defaults.rules.dead_ball_s),
+            kickoff: args.kickoff.unwrap_or(defaults.rules.kickoff),
         },
         table,
     };

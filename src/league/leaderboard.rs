@@ -12,7 +12,7 @@ use serde::Serialize;
 use super::ratings::{Game, fit, intervals};
 use super::round_robin::LeagueDir;
 use crate::files::write_atomic;
-use crate::play::matches::Tally;
+use crate::play::matches::{MatchRules, Tally};
 use crate::play::metrics::wilson_points;
 use crate::png::png;
 
@@ -60,6 +60,8 @@ pub struct Leaderboard {
     pub anchor: String,
     /// Matches per pair.
     pub matches_per_pair: u32,
+    /// How the matches were played.
+    pub rules: MatchRules,
     /// Standings, best first.
     pub standings: Vec<Standing>,
     /// The agents in matrix order (the standings' order).
@@ -135,6 +137,7 @@ impl Leaderboard {
         Self {
             anchor: names[anchor].clone(),
             matches_per_pair: league.league.matches_per_pair,
+            rules: league.league.rules.clone(),
             agents: order.iter().map(|&i| names[i].clone()).collect(),
             standings: order.iter().map(|&i| standings[i].clone()).collect(),
             matrix,
@@ -163,6 +166,7 @@ impl Leaderboard {
                 st.spins_per_minute
             );
         }
+        s += &format!("\n{}\n", self.rules_line());
         s += "\nRow against column: the row agent's points share (win 1, draw 0.5) [95 % Wilson interval].\n\n| | ";
         s += &(1..=self.agents.len())
             .map(|k| k.to_string())
@@ -294,7 +298,7 @@ th.sorted::after {{ content: " ▾"; }}
 <body>
 <h1>foosball-rl leaderboard</h1>
 <p>Bradley–Terry ratings on the Elo scale ({anchor} pinned at 1000), 95 % bootstrap intervals over matches;
-{mpp} matches per pair, sides swapped. Click a heading to sort.</p>
+{rules} Click a heading to sort.</p>
 <table id="board"><thead><tr><th>rank</th><th>agent</th><th>rating</th><th>95 % CI</th><th>matches</th><th>wins</th><th>draws</th><th>losses</th><th>goal difference</th><th>spins per minute</th></tr></thead>
 <tbody>
 {rows}</tbody></table>
@@ -314,7 +318,20 @@ document.querySelectorAll("#board th").forEach((th, col) => th.addEventListener(
 </body></html>
 "##,
             anchor = escape(&self.anchor),
-            mpp = self.matches_per_pair,
+            rules = escape(&self.rules_line()),
+        )
+    }
+
+    /// How the matches were played, in one sentence.
+    fn rules_line(&self) -> String {
+        let r = &self.rules;
+        format!(
+            "{} matches per pair, sides swapped; first to {} goals or {} s of play; kick-off {}: {}.",
+            self.matches_per_pair,
+            r.goals_to_win,
+            r.time_limit_s,
+            r.kickoff,
+            r.kickoff.meaning()
         )
     }
 }

@@ -12,10 +12,14 @@
 //! out the whole state; a run trained with `observation.hide_black_rods` hides the other
 //! side's rods from itself ([`Contestant::policy`]), whichever side it plays.
 //!
-//! Kick-off: every serve draws the ball from the table's own start distribution (for
-//! `reference`, at rest 4 cm on yellow's side of the centre line, by yellow's midfield),
-//! from the match's own seed stream. The serve favours neither side over a league
-//! because every pair plays each serve sequence twice, sides swapped.
+//! Kick-off ([`Kickoff`]): every serve draws the ball from the table's own start
+//! distribution (for `reference`, at rest 4 cm on yellow's side of the centre line, by
+//! yellow's midfield) from the match's own seed stream, on the serving side's half (black's
+//! serve is that point turned 180 degrees). By default the side scored upon serves next
+//! (ITSF's rule), the match's first serve is yellow's and a dead ball is served again by
+//! the side that served it; `kickoff = "yellow"` serves every ball on yellow's side. The
+//! serve favours neither side over a league because every pair plays each serve sequence
+//! twice, sides swapped.
 
 use foosball_env::layout::{ACTION_DIM, OBS_DIM};
 use foosball_env::seeding::{MATCHES, derive_seed};
@@ -27,6 +31,7 @@ use serde::{Deserialize, Serialize};
 use super::contestant::Contestant;
 use super::evaluation::OwnedPolicy;
 use foosball_env::config::BallFrame;
+use foosball_env::geometry::Team;
 
 /// How a match is played.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -38,6 +43,67 @@ pub struct MatchRules {
     pub time_limit_s: f32,
     /// Seconds a ball may lie dead before it is served again (default 1).
     pub dead_ball_s: f32,
+    /// Who serves (default `conceded`, ITSF's rule).
+    pub kickoff: Kickoff,
+}
+
+/// Who serves the next ball of a match.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Kickoff {
+    /// ITSF's rule: after a goal the side scored upon serves; the first serve is
+    /// yellow's, a dead ball is served again by the side that served it.
+    #[default]
+    Conceded,
+    /// Every serve on yellow's side, whoever scored: black always meets the other
+    /// side's serve (the rule of the leagues made before 2026-11-28).
+    Yellow,
+}
+
+impl Kickoff {
+    /// The side that serves after a point served by `served` ended with `end`.
+    pub fn next_server(self, served: Team, end: Option<EndReason>) -> Team {
+        match (self, end) {
+            (Kickoff::Yellow, _) => Team::Yellow,
+            (Kickoff::Conceded, Some(EndReason::Scored)) => Team::Black,
+            (Kickoff::Conceded, Some(EndReason::Conceded)) => Team::Yellow,
+            (Kickoff::Conceded, _) => served,
+        }
+    }
+
+    /// The rule in a few words.
+    pub fn meaning(self) -> &'static str {
+        match self {
+            Kickoff::Conceded => "the side scored upon serves (ITSF)",
+            Kickoff::Yellow => "every serve on yellow's side",
+        }
+    }
+
+    /// The rule's name in configs and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Kickoff::Conceded => "conceded",
+            Kickoff::Yellow => "yellow",
+        }
+    }
+}
+
+impl std::str::FromStr for Kickoff {
+    type Err = String;
+
+    /// `conceded` or `yellow`.
+    fn from_str(name: &str) -> Result<Self, String> {
+        [Kickoff::Conceded, Kickoff::Yellow]
+            .into_iter()
+            .find(|k| k.name() == name)
+            .ok_or_else(|| format!("unknown kick-off rule `{name}`; expected conceded or yellow"))
+    }
+}
+
+impl std::fmt::Display for Kickoff {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
 }
 
 impl Default for MatchRules {
@@ -46,6 +112,7 @@ impl Default for MatchRules {
             goals_to_win: 5,
             time_limit_s: 60.0,
             dead_ball_s: 1.0,
+            kickoff: Kickoff::Conceded,
         }
     }
 }
@@ -181,7 +248,7 @@ impl Tally {
 }
 
 /// The first contestant's matches of [`head_to_head`] added up: `[all, as yellow, as
-/// black]` (as yellow every serve lies on its side).
+/// black]` (under `kickoff = "yellow"` every serve lies on yellow's side).
 pub fn tallies(played: &[(bool, MatchResult)]) -> [Tally; 3] {
     let mut t = [Tally::default(); 3];
     for &(on_yellow, r) in played {
@@ -200,6 +267,7 @@ pub fn match_table(table: &FoosballConfig, rules: &MatchRules) -> FoosballConfig
     t.rules.stagnant_steps = ((rules.dead_ball_s / t.agent_dt()).ceil() as u32).max(1);
     t.max_episode_steps = u32::MAX;
     t.observation.hide_black_rods = false;
+    t.start.black_share = 0.0;
     t
 }
 
@@ -235,8 +303,8 @@ impl Opponent for PolicyOpponent {
 }
 
 /// Plays one match of `yellow` against `black` on `table` (already a [`match_table`]);
-/// serve `k` is drawn from `derive_seed(seed, MATCHES, k)`, and each side's own random
-/// draws from the same seed. A side's non-finite action counts as all zeros (the rods
+/// serve `k` is drawn from `derive_seed(seed, MATCHES, k)` on the side `rules.kickoff`
+/// names, and each side's own random draws from the same seed. A side's non-finite action counts as all zeros (the rods
 /// hold), as the env does for black.
 pub fn play_match(
     table: &FoosballConfig,
@@ -252,7 +320,9 @@ pub fn play_match(
         .map_err(|e| format!("match table: env.{e}"))?;
     let limit = (f64::from(rules.time_limit_s) / f64::from(table.agent_dt())).round() as u64;
     let mut result = MatchResult::default();
+    let mut server = Team::Yellow;
     while result.steps < limit && result.yellow_goals.max(result.black_goals) < rules.goals_to_win {
+        env.serve_on(server);
         let mut obs = env.reset(Some(derive_seed(seed, MATCHES, u64::from(result.serves))));
         result.serves += 1;
         let mut spins = [0; 2];
@@ -273,6 +343,7 @@ pub fn play_match(
                 _ => {}
             }
             if t.done() {
+                server = rules.kickoff.next_server(server, t.info.end);
                 break;
             }
         }
@@ -310,6 +381,24 @@ pub fn head_to_head(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_side_scored_upon_serves_under_itsf_rules() {
+        use EndReason::{Conceded, Scored, Stagnant};
+        let k = Kickoff::Conceded;
+        assert_eq!(k.next_server(Team::Yellow, Some(Scored)), Team::Black);
+        assert_eq!(k.next_server(Team::Black, Some(Scored)), Team::Black);
+        assert_eq!(k.next_server(Team::Black, Some(Conceded)), Team::Yellow);
+        // A dead ball is served again by the side that served it.
+        assert_eq!(k.next_server(Team::Black, Some(Stagnant)), Team::Black);
+        assert_eq!(k.next_server(Team::Yellow, Some(Stagnant)), Team::Yellow);
+        for end in [Some(Scored), Some(Conceded), Some(Stagnant), None] {
+            assert_eq!(Kickoff::Yellow.next_server(Team::Black, end), Team::Yellow);
+        }
+        assert_eq!("yellow".parse::<Kickoff>(), Ok(Kickoff::Yellow));
+        assert_eq!("conceded".parse::<Kickoff>(), Ok(Kickoff::Conceded));
+        assert!("loser".parse::<Kickoff>().unwrap_err().contains("`loser`"));
+    }
 
     #[test]
     fn tallies_split_the_matches_by_side() {

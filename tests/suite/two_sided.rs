@@ -187,3 +187,50 @@ fn a_head_to_head_swaps_sides_on_the_same_serves() {
     let again = play_match(&table, &rules, &random, &shooter, round_seed(9, 1)).unwrap();
     assert_eq!(played[3].1, again);
 }
+
+#[test]
+fn the_side_scored_upon_serves_next() {
+    use foosball_rl::env::geometry::Team;
+    use foosball_rl::env::layout::BALL_POS;
+    use foosball_rl::play::matches::Kickoff;
+    // Black's serve is yellow's turned 180 degrees about the centre.
+    let table = match_table(&FoosballConfig::default(), &MatchRules::default());
+    let ball = |side| {
+        let mut env = FoosballEnv::new(table.clone()).unwrap();
+        env.serve_on(side);
+        env.reset(Some(5));
+        let s = env.state().unwrap();
+        [s[BALL_POS.start], s[BALL_POS.start + 1]]
+    };
+    let [yellow, black] = [ball(Team::Yellow), ball(Team::Black)];
+    assert!(
+        yellow[1] < 0.0,
+        "yellow's serve lies on its side: {yellow:?}"
+    );
+    assert_eq!(black, [-yellow[0], -yellow[1]]);
+
+    use foosball_rl::play::matches::round_seed;
+    let rules = |kickoff| MatchRules {
+        kickoff,
+        ..MatchRules::default()
+    };
+    let [itsf, yellow_serves] = [Kickoff::Conceded, Kickoff::Yellow].map(rules);
+    let random = Contestant::Scripted(ScriptedPolicy::Random);
+    let shooter = Contestant::Scripted(ScriptedPolicy::Shooter);
+    let zero = Contestant::Scripted(ScriptedPolicy::Zero);
+    let play = |r: &MatchRules, y: &Contestant, b: &Contestant, seed| {
+        play_match(&table, r, y, b, seed).unwrap()
+    };
+    // Yellow serves under both rules until it scores: a match it never scores in is the
+    // same match (random on yellow, the shooter scoring 5 from its serves).
+    let seed = round_seed(0, 0);
+    let m = play(&yellow_serves, &random, &shooter, seed);
+    assert_eq!((m.yellow_goals, m.black_goals), (0, 5));
+    assert_eq!(play(&itsf, &random, &shooter, seed), m);
+    // Random scores twice past the static black from its own serves; under ITSF's rule
+    // every goal hands black the serve, and the match goes otherwise.
+    let seed = round_seed(2, 0);
+    let m = play(&yellow_serves, &random, &zero, seed);
+    assert_eq!((m.yellow_goals, m.black_goals), (2, 0));
+    assert_ne!(play(&itsf, &random, &zero, seed), m);
+}

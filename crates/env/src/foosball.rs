@@ -20,7 +20,7 @@ use serde::{Deserialize, Serialize};
 use crate::EnvRng;
 use crate::config::{ActionMap, BallFrame, ConfigError, EpisodeRules, FoosballConfig, SpinRule};
 use crate::env::{Env, EnvError, StepInfo, Transition, check_action};
-use crate::geometry::{self, NUM_RODS};
+use crate::geometry::{self, NUM_RODS, Team};
 use crate::layout::{
     self, ACTION_DIM, BALL_POS, BALL_VEL, OBS_DIM, ROD_ANGLE, ROD_ANGLE_VEL, ROD_SLIDE,
     ROD_SLIDE_VEL, action_slide, action_turn,
@@ -231,6 +231,16 @@ impl FoosballEnv {
     /// The settings this environment runs with.
     pub fn config(&self) -> &FoosballConfig {
         &self.config
+    }
+
+    /// Which side the following serves are on (a match's kick-off rule): `Team::Black`
+    /// turns every serve 180 degrees onto black's side (`start.black_share = 1`),
+    /// `Team::Yellow` keeps every serve on yellow's (`black_share = 0`, the paper's serve).
+    pub fn serve_on(&mut self, side: Team) {
+        self.config.start.black_share = match side {
+            Team::Yellow => 0.0,
+            Team::Black => 1.0,
+        };
     }
 
     /// The table of the current episode (None before the first reset).
