@@ -267,7 +267,6 @@ pub fn match_table(table: &FoosballConfig, rules: &MatchRules) -> FoosballConfig
     t.rules.stagnant_steps = ((rules.dead_ball_s / t.agent_dt()).ceil() as u32).max(1);
     t.max_episode_steps = u32::MAX;
     t.observation.hide_black_rods = false;
-    t.start.black_share = 0.0;
     t
 }
 
@@ -304,8 +303,9 @@ impl Opponent for PolicyOpponent {
 
 /// Plays one match of `yellow` against `black` on `table` (already a [`match_table`]);
 /// serve `k` is drawn from `derive_seed(seed, MATCHES, k)` on the side `rules.kickoff`
-/// names, and each side's own random draws from the same seed. A side's non-finite action counts as all zeros (the rods
-/// hold), as the env does for black.
+/// names (whatever the table's `start.black_share`), and each side's own random draws
+/// from the same seed. A side's non-finite action counts as all zeros (the rods hold), as
+/// the env does for black.
 pub fn play_match(
     table: &FoosballConfig,
     rules: &MatchRules,

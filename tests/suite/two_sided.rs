@@ -192,7 +192,7 @@ fn a_head_to_head_swaps_sides_on_the_same_serves() {
 fn the_side_scored_upon_serves_next() {
     use foosball_rl::env::geometry::Team;
     use foosball_rl::env::layout::BALL_POS;
-    use foosball_rl::play::matches::Kickoff;
+    use foosball_rl::play::matches::{Kickoff, round_seed};
     // Black's serve is yellow's turned 180 degrees about the centre.
     let table = match_table(&FoosballConfig::default(), &MatchRules::default());
     let ball = |side| {
@@ -209,7 +209,6 @@ fn the_side_scored_upon_serves_next() {
     );
     assert_eq!(black, [-yellow[0], -yellow[1]]);
 
-    use foosball_rl::play::matches::round_seed;
     let rules = |kickoff| MatchRules {
         kickoff,
         ..MatchRules::default()
