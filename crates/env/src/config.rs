@@ -3,36 +3,43 @@
 //! Every struct rejects unknown keys, and [`FoosballConfig::validate`] names the offending
 //! key (dotted path, e.g. `randomization.ball_mass_scale`) and value.
 //!
-//! A configuration starts from a [`Preset`] (`preset = "reference" | "paper" |
-//! "end_on_goal" | "reference_v1" | "paper_v1"`, default `reference`): keys written in the
-//! file override the preset's values, keys left out take them. The presets, with units:
+//! A configuration starts from a [`Preset`] (`preset = "reference" | "reference_v2" |
+//! "paper" | "end_on_goal" | "reference_v1" | "paper_v1"`, default `reference`): keys
+//! written in the file override the preset's values, keys left out take them. The
+//! presets, with units:
 //!
-//! | key | `reference` | `paper` | `end_on_goal` | `reference_v1` | `paper_v1` |
-//! | --- | --- | --- | --- | --- | --- |
-//! | `ball_frame` (frame of every ball number, below) | joint | joint | joint | world | world |
-//! | `action_map` | saturating | saturating | saturating | linear | linear |
-//! | `slide_stops` | bumpers | bumpers | bumpers | control_range | control_range |
-//! | `ball.model` | reference | reference | reference | rolling | rolling |
-//! | `men_shape` | reference | reference | reference | box | box |
-//! | `contact_recycling` (rapier's; stale contacts at cm scale) | false | false | false | true | true |
-//! | `physics_dt` (s) | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 |
-//! | `frame_skip` (physics steps per agent step) | 1 | 5 | 5 | 1 | 5 |
-//! | `max_episode_steps` (agent steps) | 20000 (40 s) | 4000 (40 s) | 4000 (40 s) | 20000 (40 s) | 4000 (40 s) |
-//! | `rules.stagnant_steps` (agent steps at <= `stagnant_speed` = 0.5 cm/s) | 10 (20 ms) | 10 (100 ms) | 10 (100 ms) | 10 (20 ms) | 10 (100 ms) |
-//! | `rules.no_progress_steps` (agent steps without +y) | 15 (30 ms) | 15 (150 ms) | 15 (150 ms) | 15 (30 ms) | 15 (150 ms) |
-//! | `rules.end_on_goal` | false | false | true | false | false |
-//! | `rules.serve_again` (a point's end serves again, the episode goes on) | false | false | false | false | false |
-//! | `reward.goal` (cm, in `ball_frame`) | (0, 65) | (0, 64) | (0, 64) | (0, 65) | (0, 64) |
-//! | `reward.goal_line_y` (in black's goal when y >= it) | 65 | 64 | 64 | 65 | 64 |
-//! | `reward.own_goal_line_y` (in yellow's goal when y <= -it) | 65 | 64 | 64 | 65 | 64 |
-//! | `reward.beta` | 1000 per step in goal | 1000 per step in goal | 1000 once | 1000 per step in goal | 1000 per step in goal |
-//! | `reward.zero_shaping_in_goal` (`alpha - d` is 0 in goal) | true | false | false | true | false |
-//! | `reward.conceded_penalty` (per step in own goal) | 1000 | 0 | 0 | 1000 | 0 |
-//! | `start.y_mean` (cm, in `ball_frame`) | 0.0 | -0.1 | -0.1 | -4.0 | -0.1 |
-//! | `ball.planar` (no vertical ball motion) | true | true | true | true | false |
+//! | key | `reference` | `reference_v2` | `paper` | `end_on_goal` | `reference_v1` | `paper_v1` |
+//! | --- | --- | --- | --- | --- | --- | --- |
+//! | `ball_frame` (frame of every ball number, below) | joint | joint | joint | joint | world | world |
+//! | `action_map` | saturating | saturating | saturating | saturating | linear | linear |
+//! | `slide_stops` | bumpers | bumpers | bumpers | bumpers | control_range | control_range |
+//! | `ball.model` | reference | reference | reference | reference | rolling | rolling |
+//! | `men_shape` | mesh | reference | reference | reference | box | box |
+//! | `contact_recycling` (rapier's; stale contacts at cm scale) | false | false | false | false | true | true |
+//! | `physics_dt` (s) | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 |
+//! | `frame_skip` (physics steps per agent step) | 1 | 1 | 5 | 5 | 1 | 5 |
+//! | `max_episode_steps` (agent steps) | 20000 (40 s) | 20000 (40 s) | 4000 (40 s) | 4000 (40 s) | 20000 (40 s) | 4000 (40 s) |
+//! | `rules.stagnant_steps` (agent steps at <= `stagnant_speed` = 0.5 cm/s) | 10 (20 ms) | 10 (20 ms) | 10 (100 ms) | 10 (100 ms) | 10 (20 ms) | 10 (100 ms) |
+//! | `rules.no_progress_steps` (agent steps without +y) | 15 (30 ms) | 15 (30 ms) | 15 (150 ms) | 15 (150 ms) | 15 (30 ms) | 15 (150 ms) |
+//! | `rules.end_on_goal` | false | false | false | true | false | false |
+//! | `rules.serve_again` (a point's end serves again, the episode goes on) | false | false | false | false | false | false |
+//! | `reward.goal` (cm, in `ball_frame`) | (0, 65) | (0, 65) | (0, 64) | (0, 64) | (0, 65) | (0, 64) |
+//! | `reward.goal_line_y` (in black's goal when y >= it) | 65 | 65 | 64 | 64 | 65 | 64 |
+//! | `reward.own_goal_line_y` (in yellow's goal when y <= -it) | 65 | 65 | 64 | 64 | 65 | 64 |
+//! | `reward.beta` | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 once | 1000 per step in goal | 1000 per step in goal |
+//! | `reward.zero_shaping_in_goal` (`alpha - d` is 0 in goal) | true | true | false | false | true | false |
+//! | `reward.conceded_penalty` (per step in own goal) | 1000 | 1000 | 0 | 0 | 1000 | 0 |
+//! | `start.y_mean` (cm, in `ball_frame`) | 0.0 | 0.0 | -0.1 | -0.1 | -4.0 | -0.1 |
+//! | `integrator` (how a physics step is taken) | mujoco_euler | rapier | rapier | rapier | rapier | rapier |
+//! | `ball.friction` (of every ball contact) | 1.0 | 0.01 | 0.01 | 0.01 | 0.3 | 0.3 |
+//! | `rod_mount` | locked_axes | joint | joint | joint | joint | joint |
+//! | `ball.planar` (no vertical ball motion) | true | true | true | true | true | false |
 //!
-//! `reference` is the paper's code (Foosball_CU v2 gym and its MuJoCo model); `paper` and
-//! `end_on_goal` read the text's numbers in the code's frame on the code's table;
+//! `reference` is the paper's code (Foosball_CU v2 gym and its MuJoCo model), its rods
+//! moved step by step as MuJoCo moves them; `reference_v2` is the same game with this
+//! project's first servo, whose rods lag the model's first steps (kept so that the runs
+//! made on it still replay); `paper` and `end_on_goal` read the text's numbers in the
+//! code's frame on the code's table (with the first servo);
 //! `reference_v1` and `paper_v1` are the first games of this project (world frame, linear
 //! actions, a rolling, bouncing ball), kept so that the runs made on them still replay.
 //!
@@ -56,10 +63,16 @@ pub enum Preset {
     /// the ball past -65, start y ~ N(0, 0.5²)), actions saturating at each actuator's
     /// control range, the model's sliding ball with dry friction per axis and dead
     /// contacts, slides stopped by the rods' bumpers, one 2 ms physics step per agent step
-    /// (its counters are 20 ms and 30 ms). The default: it is what produced the paper's
-    /// figures.
+    /// (its counters are 20 ms and 30 ms), each step taken as MuJoCo takes it
+    /// ([`Integrator::MujocoEuler`]) with the mesh's men ([`MenShape::Mesh`]). The default:
+    /// it is what produced the paper's figures.
     #[default]
     Reference,
+    /// The second `reference` of this project: the same rules and ball, with this
+    /// project's first step ([`Integrator::Rapier`]) and leg blocks, whose rods reach the
+    /// reference's end states but lag its first steps 2-4x. The game of `results/figure2`, the recipe
+    /// and the first leagues.
+    ReferenceV2,
     /// The paper's text made exact on the code's table: `alpha - |ball_xy - (0, 64)| +
     /// beta * [ball_y >= 64]` on every step (the text's numbers read in the code's frame),
     /// no end on a goal, the agent acting every 10 ms, ball start y ~ N(-0.1, 0.5²).
@@ -78,8 +91,9 @@ pub enum Preset {
 
 impl Preset {
     /// Every preset, in documentation order.
-    pub const ALL: [Preset; 5] = [
+    pub const ALL: [Preset; 6] = [
         Preset::Reference,
+        Preset::ReferenceV2,
         Preset::Paper,
         Preset::EndOnGoal,
         Preset::ReferenceV1,
@@ -90,6 +104,7 @@ impl Preset {
     pub fn name(self) -> &'static str {
         match self {
             Preset::Reference => "reference",
+            Preset::ReferenceV2 => "reference_v2",
             Preset::Paper => "paper",
             Preset::EndOnGoal => "end_on_goal",
             Preset::ReferenceV1 => "reference_v1",
@@ -165,8 +180,10 @@ pub struct FoosballConfig {
     pub start: StartConfig,
     /// Nominal ball and surface properties.
     pub ball: BallConfig,
-    /// How each rod is held to the table (default `joint`).
+    /// How each rod is held to the table.
     pub rod_mount: RodMount,
+    /// How a physics step is taken.
+    pub integrator: Integrator,
     /// Who plays black.
     pub opponent: OpponentKind,
     /// Per-episode domain randomisation (off by default, as in the paper).
@@ -199,6 +216,7 @@ impl FoosballConfig {
             start: StartConfig::default(),
             ball: BallConfig::default(),
             rod_mount: RodMount::default(),
+            integrator: Integrator::Rapier,
             opponent: OpponentKind::Static,
             randomization: Randomization::default(),
             observation: ObservationConfig::default(),
@@ -244,7 +262,7 @@ impl FoosballConfig {
                 },
                 ..code_table
             },
-            Preset::Reference => Self {
+            Preset::ReferenceV2 => Self {
                 frame_skip: 1,
                 max_episode_steps: 20_000,
                 reward: code_reward,
@@ -253,6 +271,17 @@ impl FoosballConfig {
                     ..code_table.start
                 },
                 ..code_table
+            },
+            Preset::Reference => Self {
+                preset,
+                ball: BallConfig {
+                    friction: geometry::REFERENCE_CONTACT_FRICTION,
+                    ..BallConfig::reference()
+                },
+                men_shape: MenShape::Mesh,
+                rod_mount: RodMount::LockedAxes,
+                integrator: Integrator::MujocoEuler,
+                ..Self::preset(Preset::ReferenceV2)
             },
         }
     }
@@ -333,6 +362,11 @@ pub enum MenShape {
     /// behind the axis to 0.9 cm in front of it.
     #[default]
     Reference,
+    /// The reference mesh's lower leg and foot as a convex prism: its outline seen along
+    /// the rod ([`crate::geometry::foosman::MESH_LEG_PROFILE`]), tapering from 2.4 cm deep
+    /// at the shin to 0.6 cm at the sole, where the blocks keep 2.2 cm down to the sole
+    /// (they meet a ball in front of a turning man 1-2 steps early).
+    Mesh,
 }
 
 impl ActionMap {
@@ -501,6 +535,11 @@ pub struct EpisodeRules {
     /// ends at `max_episode_steps` (truncated), a physics fault or a spin foul. The step's
     /// reward and info are those of the point's end; its observation is the served table.
     pub serve_again: bool,
+    /// The rules above end episodes (default true). False for a probe that steps a table
+    /// past every point's end: no goal, stagnant ball, lack of progress or spin foul ends
+    /// it (nor serves again); only `max_episode_steps` and a physics fault do. Rewards and
+    /// the info's counters are as with the rules on.
+    pub end_episodes: bool,
 }
 
 impl Default for EpisodeRules {
@@ -513,6 +552,7 @@ impl Default for EpisodeRules {
             spin: SpinRule::Off,
             spin_limit_deg: 360.0,
             serve_again: false,
+            end_episodes: true,
         }
     }
 }
@@ -656,6 +696,29 @@ impl RodMount {
     pub const ALL: [RodMount; 2] = [RodMount::Joint, RodMount::LockedAxes];
 }
 
+/// How a physics step is taken: the rods' servo force and integration, their inertia and
+/// slide stops, and when contacts are found.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Integrator {
+    /// This project's first step: the servo's force evaluated at the end of the step
+    /// (backward Euler, "stable PD", [`Servo::implicit_force`](crate::servo::Servo::implicit_force))
+    /// over rapier's four substeps, on our colliders' inertia, with the earth's gravity on
+    /// the men, a hard stop at the bumpers, and rapier's speculative contacts (found before
+    /// the bodies touch). It reaches the reference's end states, but its rods lag MuJoCo's
+    /// first steps 2-4x (the `reference_v2` game).
+    #[default]
+    Rapier,
+    /// The reference model's step as MuJoCo 3.3.2's Euler integrator takes it: the position
+    /// actuator's force `kp (ctrl - q) - kv q'` taken at the start of each step, `q' += dt a`
+    /// then `q += dt q'` (one step, no substeps, turns not capped), on the model's
+    /// generalised inertia of each joint ([`crate::geometry::RodSpec::turn_inertia`]), with
+    /// the model's 9.81 cm/s² gravity on the men, the bumpers as its soft contacts
+    /// ([`crate::soft_stop::SoftStop::REFERENCE`]), and contacts found where the bodies are at
+    /// the start of the step (none ahead of touching). Needs `rod_mount = "locked_axes"`.
+    MujocoEuler,
+}
+
 /// Who controls black's rods.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -782,6 +845,13 @@ impl FoosballConfig {
                     "{} s is too coarse for the rod servos; use <= 0.02",
                     self.physics_dt
                 ),
+            ));
+        }
+        if self.integrator == Integrator::MujocoEuler && self.rod_mount != RodMount::LockedAxes {
+            return Err(ConfigError::new(
+                "rod_mount",
+                "integrator = \"mujoco_euler\" sets each rod's inertia about its axis, which only \
+                 rod_mount = \"locked_axes\" allows; got \"joint\"",
             ));
         }
         at_least_one("frame_skip", self.frame_skip)?;

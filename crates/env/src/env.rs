@@ -12,6 +12,9 @@ pub enum EnvError {
     /// `step` was called before `reset`, or after the episode ended.
     #[error("the episode is over (or never started): call reset first")]
     NeedsReset,
+    /// A reset option is out of its range (the environment is left as it was).
+    #[error("reset option `{key}`: {reason}")]
+    ResetOption { key: &'static str, reason: String },
 }
 
 /// What one step returns besides the observation.

@@ -151,6 +151,15 @@ impl FoosballInfo {
     }
 }
 
+/// What a reset may fix instead of drawing it ([`FoosballEnv::reset_with`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ResetOptions {
+    /// The ball's start at rest, `[x, y]` in cm in the env's `ball_frame`; `None` draws it
+    /// from `start` (a seeded draw uses the generator as a drawn start would, so the
+    /// episode's other draws are the same either way).
+    pub ball: Option<[f32; 2]>,
+}
+
 /// One episode's draw of the randomised quantities.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EpisodeDraw {
@@ -290,6 +299,72 @@ impl FoosballEnv {
             position_noise_std,
             action_latency,
         }
+    }
+
+    /// Starts an episode as [`Env::reset_into`] does, with what `options` fixes: the ball's
+    /// start. A value off the playfield (or not finite) is refused with an error naming it,
+    /// and the environment is left as it was.
+    pub fn reset_with(
+        &mut self,
+        seed: Option<u64>,
+        options: &ResetOptions,
+        obs: &mut [f32],
+    ) -> Result<(), EnvError> {
+        let ball = options
+            .ball
+            .map(|seen| self.ball_start_world(seen))
+            .transpose()?;
+        self.start_episode(seed, ball, obs);
+        Ok(())
+    }
+
+    /// `seen` (the ball's `[x, y]` in the env's frame) in world coordinates, if the ball
+    /// lies there on the playfield.
+    fn ball_start_world(&self, seen: [f32; 2]) -> Result<[f32; 2], EnvError> {
+        let [ox, oy, _] = self.config.ball_frame.origin();
+        let [x, y] = [seen[0] + ox, seen[1] + oy];
+        let limit_x = geometry::FIELD_HALF_WIDTH - geometry::BALL_RADIUS;
+        let limit_y = geometry::FIELD_HALF_LENGTH - geometry::BALL_RADIUS;
+        if !(x.abs() <= limit_x && y.abs() <= limit_y) {
+            return Err(EnvError::ResetOption {
+                key: "ball",
+                reason: format!(
+                    "{seen:?} ({:?} frame) is not on the playfield: world |x| <= {limit_x}, |y| <= {limit_y}",
+                    self.config.ball_frame
+                ),
+            });
+        }
+        Ok([x, y])
+    }
+
+    /// A new episode: a fresh draw, the ball at `ball` (world) or drawn from `start`.
+    fn start_episode(&mut self, seed: Option<u64>, ball: Option<[f32; 2]>, obs: &mut [f32]) {
+        if let Some(seed) = seed {
+            self.rng = EnvRng::seed_from_u64(seed);
+        }
+        let draw = self.draw_episode();
+        let drawn = serve_point(&self.config, &mut self.rng);
+        let [x, y] = ball.unwrap_or(drawn);
+        let table = Table::new(&draw.physics, [x, y]);
+        let state = Self::observe(&table);
+        self.table = Some(table);
+        self.opponent.reset(&mut self.rng);
+        self.episode = Some(Episode {
+            draw,
+            steps: 0,
+            stagnant_steps: 0,
+            no_progress_steps: 0,
+            prev_ball_y: y,
+            pending: VecDeque::new(),
+            state,
+            over: false,
+            spin: SpinMeter::new(&state[ROD_ANGLE]),
+            spins: [0; 2],
+            in_goals: [false; 2],
+            goals: [0; 2],
+            serves: 0,
+        });
+        self.emit(&state, obs, true);
     }
 
     /// The noise-free observation of the table's state.
@@ -432,7 +507,7 @@ fn ball_event(
     if !(x.is_finite() && y.is_finite() && z.is_finite() && v.iter().all(|c| c.is_finite())) {
         return Some(EndReason::PhysicsFault);
     }
-    if rules.end_on_goal {
+    if rules.end_on_goal && rules.end_episodes {
         match goals(x, y, line_y, own_line_y) {
             (true, _) => return Some(EndReason::Scored),
             (_, true) => return Some(EndReason::Conceded),
@@ -459,31 +534,7 @@ impl Env for FoosballEnv {
     }
 
     fn reset_into(&mut self, seed: Option<u64>, obs: &mut [f32]) {
-        if let Some(seed) = seed {
-            self.rng = EnvRng::seed_from_u64(seed);
-        }
-        let draw = self.draw_episode();
-        let [x, y] = serve_point(&self.config, &mut self.rng);
-        let table = Table::new(&draw.physics, [x, y]);
-        let state = Self::observe(&table);
-        self.table = Some(table);
-        self.opponent.reset(&mut self.rng);
-        self.episode = Some(Episode {
-            draw,
-            steps: 0,
-            stagnant_steps: 0,
-            no_progress_steps: 0,
-            prev_ball_y: y,
-            pending: VecDeque::new(),
-            state,
-            over: false,
-            spin: SpinMeter::new(&state[ROD_ANGLE]),
-            spins: [0; 2],
-            in_goals: [false; 2],
-            goals: [0; 2],
-            serves: 0,
-        });
-        self.emit(&state, obs, true);
+        self.start_episode(seed, None, obs);
     }
 
     fn step_into(
@@ -562,7 +613,9 @@ impl Env for FoosballEnv {
                 yellow_spins as f32 * self.config.reward.spin_penalty
             }
         };
-        let rule_end = if rules.spin == SpinRule::Foul && yellow_spins > 0 {
+        let rule_end = if !rules.end_episodes {
+            (ep.steps >= self.config.max_episode_steps).then_some(EndReason::TimeLimit)
+        } else if rules.spin == SpinRule::Foul && yellow_spins > 0 {
             Some(EndReason::SpinFoul)
         } else if ep.stagnant_steps >= rules.stagnant_steps {
             Some(EndReason::Stagnant)

@@ -6,6 +6,10 @@
 
 /// Gravity along -z in cm/s².
 pub const GRAVITY: f32 = 981.0;
+/// The reference model's gravity, cm/s²: MuJoCo's default 9.81 in a model whose lengths
+/// are in cm (100 times too weak). Under [`Integrator::MujocoEuler`](crate::config::Integrator)
+/// it is what pulls on the men as they turn (the reference's ball has no vertical motion).
+pub const REFERENCE_GRAVITY: f32 = 9.81;
 
 /// Ball radius in cm.
 pub const BALL_RADIUS: f32 = 1.733_55;
@@ -34,6 +38,11 @@ pub const REFERENCE_BALL_DECELERATION: f32 = 200.0;
 /// Friction coefficient of the `reference` ball's contacts with men and walls (calibrated
 /// against the reference model, see `tests/suite/reference_parity.rs`).
 pub const REFERENCE_BALL_FRICTION: f32 = 0.01;
+/// Friction coefficient of the reference model's ball contacts as MuJoCo combines them:
+/// the larger of the two geoms', the ball's 0.01 against the men's and the table's default
+/// 1 (read off the model's contacts in mujoco 3.3.2). The `reference` preset's; the
+/// first servo's game (`reference_v2`) kept the ball's own 0.01.
+pub const REFERENCE_CONTACT_FRICTION: f32 = 1.0;
 /// Restitution of the `reference` ball's contacts (calibrated likewise: MuJoCo's soft
 /// contacts with solref 0.004 and damping ratio 1 are nearly dead).
 pub const REFERENCE_BALL_RESTITUTION: f32 = 0.09;
@@ -73,6 +82,32 @@ pub mod foosman {
     /// in the reference model. The leg box of [`MenShape::Box`](crate::config::MenShape)
     /// is ±`LEG_HALF_Y` about the axis instead: 0.3 cm deeper in front.
     pub const REFERENCE_LEG_Y: [f32; 2] = [-1.3, 0.9];
+    /// The reference mesh's lower leg and foot seen along the rod, `[y, z]` from the rod
+    /// axis (cm; y the way the team attacks, z up at neutral): the convex outline of the
+    /// mesh's vertices more than 3.9 cm from the axis, as the model places the mesh,
+    /// simplified to within 0.02 cm. Only this part can meet the ball: the ball's centre
+    /// never comes closer to an axis than 6.045 - 1.734 = 4.31 cm. Across the table the
+    /// mesh there spans ±[`LEG_HALF_X`] (its convex hull is 2 % smaller than the prism).
+    pub const MESH_LEG_PROFILE: [[f32; 2]; 18] = [
+        [0.880, -3.894],
+        [-1.084, -3.960],
+        [-1.290, -4.041],
+        [-1.390, -4.155],
+        [-1.447, -4.363],
+        [-1.426, -4.488],
+        [-0.524, -6.662],
+        [-0.320, -7.020],
+        [-0.175, -7.209],
+        [-0.088, -7.265],
+        [0.051, -7.276],
+        [0.167, -7.217],
+        [0.398, -6.918],
+        [0.537, -6.658],
+        [0.671, -6.259],
+        [0.931, -4.800],
+        [0.959, -4.204],
+        [0.935, -3.917],
+    ];
 }
 
 /// Which side a rod belongs to. Yellow is the agent and attacks +y; black defends y = +60.12.
@@ -110,6 +145,16 @@ pub struct RodSpec {
     /// Slide travel allowed by the rod's rubber bumpers, [low, high] cm (measured in the
     /// reference model by commanding each end of the control range).
     pub bumper_travel: [f32; 2],
+    /// Slide at which a rubber bumper pad first touches a side wall in the reference model,
+    /// cm (either side): where its soft contact starts pushing back. Fitted to the
+    /// model's step response (`shared/reference/foosball_cu/step_response.json`), the
+    /// defence's (whose stop the fixture never reaches) from its rest at the stop.
+    pub bumper_contact: f32,
+    /// The reference model's generalised inertia of the rod's turn (MuJoCo's `dof_M` of its
+    /// hinge, read from the model), kg cm². Our colliders' inertia is larger (box men);
+    /// [`Integrator::MujocoEuler`](crate::config::Integrator) gives the rod this one. The
+    /// slide's (kg) is ours already: rod, fittings and men.
+    pub turn_inertia: f32,
     /// Slide servo stiffness (kg/s², i.e. force per cm) and damping (kg/s).
     pub slide_kp: f32,
     pub slide_kv: f32,
@@ -129,6 +174,8 @@ pub const RODS: [RodSpec; 4] = [
         rod_mass: 1.202_68,
         slide_range: 10.0,
         bumper_travel: [-8.70, 8.70],
+        bumper_contact: 8.692,
+        turn_inertia: 2.043_187,
         slide_kp: 20_000.0,
         slide_kv: 300.0,
         turn_range: 2.5,
@@ -142,6 +189,8 @@ pub const RODS: [RodSpec; 4] = [
         rod_mass: 1.402_07,
         slide_range: 20.0,
         bumper_travel: [-17.43, 17.43],
+        bumper_contact: 17.429,
+        turn_inertia: 1.384_019,
         slide_kp: 10_000.0,
         slide_kv: 200.0,
         turn_range: 2.5,
@@ -155,6 +204,8 @@ pub const RODS: [RodSpec; 4] = [
         rod_mass: 1.1264,
         slide_range: 7.0,
         bumper_travel: [-5.42, 5.42],
+        bumper_contact: 5.414,
+        turn_inertia: 3.348_838,
         slide_kp: 40_000.0,
         slide_kv: 500.0,
         turn_range: 2.5,
@@ -168,6 +219,8 @@ pub const RODS: [RodSpec; 4] = [
         rod_mass: 1.257_06,
         slide_range: 12.0,
         bumper_travel: [-11.20, 11.20],
+        bumper_contact: 11.194,
+        turn_inertia: 2.036_865,
         slide_kp: 20_000.0,
         slide_kv: 300.0,
         turn_range: 2.5,

@@ -31,13 +31,14 @@ pub mod roster;
 pub mod scripted;
 pub mod seeding;
 pub mod servo;
+pub mod soft_stop;
 pub mod spin;
 pub mod table;
 pub mod vec_env;
 
 pub use config::{ConfigError, FoosballConfig, OpponentKind, Preset, Randomization, RodMount};
 pub use env::{Env, EnvError, StepInfo, Transition};
-pub use foosball::{EndReason, FoosballEnv, FoosballInfo, ball_in_a_goal};
+pub use foosball::{EndReason, FoosballEnv, FoosballInfo, ResetOptions, ball_in_a_goal};
 pub use observation::{ObservationConfig, ObservationKind};
 pub use opponent::Opponent;
 pub use pendulum::Pendulum;

@@ -1,5 +1,7 @@
 //! The rods' position servos: MuJoCo's `position` actuator, `force = kp (target - q) - kv q'`,
-//! integrated implicitly so the stiff gains of the reference stay stable at any `physics_dt`.
+//! taken explicitly as MuJoCo's Euler integrator takes it ([`Servo::explicit_force`]), or
+//! implicitly ([`Servo::implicit_force`], this project's first servo) so that the stiff
+//! gains of the reference stay stable at any `physics_dt`.
 
 /// A PD position servo on one joint coordinate.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -11,6 +13,13 @@ pub struct Servo {
 }
 
 impl Servo {
+    /// Generalised force (units as [`Servo::implicit_force`]) at position `q` moving at
+    /// `qdot`: `kp (target - q) - kv qdot`, the actuator's force at the start of the step,
+    /// as MuJoCo's Euler integrator applies it for the whole step.
+    pub fn explicit_force(&self, target: f32, q: f32, qdot: f32) -> f32 {
+        self.kp * (target - q) - self.kv * qdot
+    }
+
     /// Generalised force (N·100 = kg cm/s² for slides, kg cm²/s² for turns) to apply for one
     /// physics step of `dt` seconds on a joint of generalised inertia `inertia` at position
     /// `q` moving at `qdot`.
@@ -20,7 +29,7 @@ impl Servo {
     /// returning `m (v' - v) / dt`. As `dt -> 0` it tends to the explicit law
     /// `kp (target - q) - kv qdot`; unlike it, it never overshoots into instability when
     /// `dt * sqrt(kp / m)` is large.
-    pub fn force(&self, target: f32, q: f32, qdot: f32, inertia: f32, dt: f32) -> f32 {
+    pub fn implicit_force(&self, target: f32, q: f32, qdot: f32, inertia: f32, dt: f32) -> f32 {
         let explicit = self.kp * (target - q - dt * qdot) - self.kv * qdot;
         explicit / (1.0 + dt * self.kv / inertia + dt * dt * self.kp / inertia)
     }
@@ -34,7 +43,7 @@ mod tests {
     fn settle(servo: Servo, inertia: f32, dt: f32, steps: usize) -> (f32, f32) {
         let (mut q, mut v) = (0.0_f32, 0.0_f32);
         for _ in 0..steps {
-            let f = servo.force(1.0, q, v, inertia, dt);
+            let f = servo.implicit_force(1.0, q, v, inertia, dt);
             v += dt * f / inertia;
             q += dt * v;
         }
@@ -47,8 +56,9 @@ mod tests {
             kp: 100.0,
             kv: 10.0,
         };
-        let f = s.force(2.0, 0.5, 0.3, 1.0, 1e-7);
-        assert!((f - (100.0 * 1.5 - 10.0 * 0.3)).abs() < 1e-3);
+        let f = s.implicit_force(2.0, 0.5, 0.3, 1.0, 1e-7);
+        assert!((f - s.explicit_force(2.0, 0.5, 0.3)).abs() < 1e-3);
+        assert_eq!(s.explicit_force(2.0, 0.5, 0.3), 100.0 * 1.5 - 10.0 * 0.3);
     }
 
     #[test]

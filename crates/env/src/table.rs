@@ -12,9 +12,10 @@ use core::f32::consts::PI;
 
 use rapier3d::prelude::*;
 
-use crate::config::{BallModel, FoosballConfig, MenShape, RodMount, SlideStops};
+use crate::config::{BallModel, FoosballConfig, Integrator, MenShape, RodMount, SlideStops};
 use crate::geometry::{self, NUM_RODS, RodSpec, Team, foosman};
 use crate::servo::Servo;
+use crate::soft_stop::SoftStop;
 
 const TABLE_GROUP: Group = Group::GROUP_1;
 const BALL_GROUP: Group = Group::GROUP_2;
@@ -57,6 +58,8 @@ pub struct PhysicsParams {
     pub ball_planar: bool,
     /// How the rods are held.
     pub rod_mount: RodMount,
+    /// How a physics step is taken.
+    pub integrator: Integrator,
 }
 
 impl PhysicsParams {
@@ -77,6 +80,7 @@ impl PhysicsParams {
             servo_gain_scale: 1.0,
             ball_planar: config.ball.planar,
             rod_mount: config.rod_mount,
+            integrator: config.integrator,
         }
     }
 }
@@ -114,6 +118,9 @@ struct Rod {
     hanging_weight: Option<[f32; 2]>,
     /// Unwrapped turn angle after the last step, rad.
     angle: f32,
+    /// Under [`Integrator::MujocoEuler`] with bumpers: the slides at which the bumpers'
+    /// soft contacts start, cm.
+    soft_stops: Option<[f32; 2]>,
 }
 
 /// The simulated table.
@@ -124,6 +131,7 @@ pub struct Table {
     /// Servo targets per rod: `[slide cm, angle rad]`.
     targets: [[f32; 2]; NUM_RODS],
     ball_drag: BallDrag,
+    integrator: Integrator,
 }
 
 /// The floor's pull on the moving ball.
@@ -241,45 +249,55 @@ fn rod_colliders(
     let torso_vol = foosman::TORSO_HALF_X * foosman::TORSO_HALF_Y * torso_half_z;
     let leg_vol = foosman::LEG_HALF_X * foosman::LEG_HALF_Y * leg_half_z;
     let torso_mass = foosman::MASS * torso_vol / (torso_vol + leg_vol);
-    // The leg's extent along the table in the rod's frame (+y: the way the team attacks).
+    // The leg block's extent along the table in the rod's frame (+y: the way the team
+    // attacks); the mesh's leg has its own outline.
     let [leg_back, leg_front] = match men {
         MenShape::Box => [-foosman::LEG_HALF_Y, foosman::LEG_HALF_Y],
-        MenShape::Reference => foosman::REFERENCE_LEG_Y,
+        MenShape::Reference | MenShape::Mesh => foosman::REFERENCE_LEG_Y,
     };
     let leg_y = 0.5 * (leg_front + leg_back);
+    let torso_z = 0.5 * (foosman::HEAD_TOP - foosman::WAIST);
+    let leg_z = -0.5 * (foosman::WAIST + foosman::FOOT_BOTTOM);
+    let man_collider = |shape: ColliderBuilder, m: f32| {
+        shape
+            .mass(m)
+            .collision_groups(rod_groups)
+            .friction(0.0)
+            .restitution(men_restitution)
+            .build()
+    };
     for &x in spec.men_x {
-        let torso_z = 0.5 * (foosman::HEAD_TOP - foosman::WAIST);
-        let leg_z = -0.5 * (foosman::WAIST + foosman::FOOT_BOTTOM);
-        for (hx, hy, y, hz, z, m) in [
-            (
-                foosman::TORSO_HALF_X,
-                foosman::TORSO_HALF_Y,
-                0.0,
-                torso_half_z,
-                torso_z,
-                torso_mass,
-            ),
-            (
+        out.push(man_collider(
+            ColliderBuilder::cuboid(foosman::TORSO_HALF_X, foosman::TORSO_HALF_Y, torso_half_z)
+                .translation(Vector::new(x, 0.0, torso_z)),
+            torso_mass,
+        ));
+        let leg = match men {
+            MenShape::Box | MenShape::Reference => ColliderBuilder::cuboid(
                 foosman::LEG_HALF_X,
                 0.5 * (leg_front - leg_back),
-                leg_y,
                 leg_half_z,
-                leg_z,
-                foosman::MASS - torso_mass,
-            ),
-        ] {
-            out.push(
-                ColliderBuilder::cuboid(hx, hy, hz)
-                    .translation(Vector::new(x, y, z))
-                    .mass(m)
-                    .collision_groups(rod_groups)
-                    .friction(0.0)
-                    .restitution(men_restitution)
-                    .build(),
-            );
-        }
+            )
+            .translation(Vector::new(x, leg_y, leg_z)),
+            MenShape::Mesh => mesh_leg().translation(Vector::new(x, 0.0, 0.0)),
+        };
+        out.push(man_collider(leg, foosman::MASS - torso_mass));
     }
     out
+}
+
+/// The mesh's lower leg and foot ([`foosman::MESH_LEG_PROFILE`]) as a convex prism
+/// ±[`foosman::LEG_HALF_X`] across, in the man's frame.
+fn mesh_leg() -> ColliderBuilder {
+    let points: Vec<Vector> = [-foosman::LEG_HALF_X, foosman::LEG_HALF_X]
+        .into_iter()
+        .flat_map(|x| {
+            foosman::MESH_LEG_PROFILE
+                .iter()
+                .map(move |&[y, z]| Vector::new(x, y, z))
+        })
+        .collect();
+    ColliderBuilder::convex_hull(&points).expect("the leg profile spans a volume")
 }
 
 /// `a` wrapped into (-π, π].
@@ -307,6 +325,21 @@ impl Table {
         world.integration_parameters.dt = params.dt;
         world.integration_parameters.length_unit = 100.0;
         world.integration_parameters.contact_recycling = params.contact_recycling;
+        let mujoco = params.integrator == Integrator::MujocoEuler;
+        if mujoco {
+            // One Euler step per physics step, as MuJoCo takes it.
+            world.integration_parameters.num_solver_iterations = 1;
+            // Contacts found where the bodies are at the start of the step, as MuJoCo finds
+            // them: none ahead of touching, so a man meets the ball a step after it
+            // reaches it, not in the step it does (rapier's speculative contacts).
+            world.integration_parameters.normalized_prediction_distance = 0.0;
+            if let Ok(v) = std::env::var("SOFT") {
+                let f: Vec<f32> = v.split(',').map(|x| x.parse().unwrap()).collect();
+                world.integration_parameters.contact_softness = SpringCoefficients::new(f[0], f[1]);
+                world.integration_parameters.static_contact_softness =
+                    SpringCoefficients::new(f[0], f[1]);
+            }
+        }
 
         let ground = world.insert_body(RigidBodyBuilder::fixed());
         for c in table_colliders() {
@@ -336,6 +369,9 @@ impl Table {
                     RigidBodyBuilder::dynamic()
                         .pose(frame)
                         .ccd_enabled(true)
+                        // MuJoCo's rods turn up to 0.9 rad in a step (the midfield's
+                        // reversal); rapier would cap them at 0.25 pi.
+                        .allow_fast_rotation(mujoco)
                         .locked_axes(if locked {
                             LockedAxes::TRANSLATION_LOCKED_Y
                                 | LockedAxes::TRANSLATION_LOCKED_Z
@@ -363,20 +399,32 @@ impl Table {
                         | JointAxesMask::ANG_Y
                         | JointAxesMask::ANG_Z
                 };
-                let joint = GenericJointBuilder::new(held)
+                let soft_stops = (mujoco && params.slide_stops == SlideStops::Bumpers)
+                    .then_some([-spec.bumper_contact, spec.bumper_contact]);
+                let mut joint = GenericJointBuilder::new(held)
                     .local_frame1(frame)
                     .local_frame2(Pose::IDENTITY)
-                    .limits(JointAxis::LinX, slide_limits(spec, params.slide_stops))
-                    .contacts_enabled(false)
-                    .build();
-                world.insert_impulse_joint(ground, body, joint);
+                    .contacts_enabled(false);
+                if soft_stops.is_none() {
+                    joint = joint.limits(JointAxis::LinX, slide_limits(spec, params.slide_stops));
+                }
+                world.insert_impulse_joint(ground, body, joint.build());
 
                 let rb = &world.bodies[body];
                 let mprops = &rb.mass_properties().local_mprops;
                 let com = mprops.local_com;
                 let inertia = mprops.reconstruct_inertia_matrix();
                 let mass = mprops.mass();
-                let turn_inertia = inertia.x_axis.x + mass * (com.y * com.y + com.z * com.z);
+                let turn_inertia = if mujoco {
+                    spec.turn_inertia
+                } else {
+                    inertia.x_axis.x + mass * (com.y * com.y + com.z * com.z)
+                };
+                let gravity = if mujoco {
+                    geometry::REFERENCE_GRAVITY
+                } else {
+                    geometry::GRAVITY
+                };
                 let hanging_weight = locked.then(|| {
                     // The body turns about its centre of mass, so that goes on the axis
                     // (with the inertia about the axis) and the colliders carry no mass;
@@ -395,10 +443,7 @@ impl Table {
                         false,
                     );
                     rb.recompute_mass_properties_from_colliders(&world.colliders);
-                    [
-                        mass * geometry::GRAVITY * com.y,
-                        mass * geometry::GRAVITY * com.z,
-                    ]
+                    [mass * gravity * com.y, mass * gravity * com.z]
                 });
                 let g = params.servo_gain_scale;
                 Rod {
@@ -417,6 +462,7 @@ impl Table {
                         kv: g * spec.turn_kv,
                     },
                     angle: 0.0,
+                    soft_stops,
                 }
             })
             .collect();
@@ -455,6 +501,7 @@ impl Table {
             ball,
             rods,
             targets: [[0.0; 2]; NUM_RODS],
+            integrator: params.integrator,
             ball_drag: if sliding {
                 BallDrag::PerAxis(params.axis_deceleration)
             } else {
@@ -481,17 +528,41 @@ impl Table {
     /// Advances the world by one physics step.
     pub fn step(&mut self) {
         let dt = self.world.integration_parameters.dt;
+        let before: [RodState; NUM_RODS] = core::array::from_fn(|i| self.rod_state(i));
         for (i, rod) in self.rods.iter().enumerate() {
-            let s = self.rod_state(i);
+            let s = before[i];
             let [slide_target, angle_target] = self.targets[i];
-            let f = rod
-                .slide_servo
-                .force(slide_target, s.slide, s.slide_vel, rod.slide_mass, dt);
-            let mut t =
-                rod.turn_servo
-                    .force(angle_target, s.angle, s.angle_vel, rod.turn_inertia, dt);
+            let (mut f, mut t) = match self.integrator {
+                Integrator::Rapier => (
+                    rod.slide_servo.implicit_force(
+                        slide_target,
+                        s.slide,
+                        s.slide_vel,
+                        rod.slide_mass,
+                        dt,
+                    ),
+                    rod.turn_servo.implicit_force(
+                        angle_target,
+                        s.angle,
+                        s.angle_vel,
+                        rod.turn_inertia,
+                        dt,
+                    ),
+                ),
+                Integrator::MujocoEuler => (
+                    rod.slide_servo
+                        .explicit_force(slide_target, s.slide, s.slide_vel),
+                    rod.turn_servo
+                        .explicit_force(angle_target, s.angle, s.angle_vel),
+                ),
+            };
             if let Some([wy, wz]) = rod.hanging_weight {
                 t += wz * s.angle.sin() - wy * s.angle.cos();
+            }
+            if let Some(stops) = rod.soft_stops {
+                let free = f / rod.slide_mass;
+                f += rod.slide_mass
+                    * SoftStop::REFERENCE.acceleration(stops, s.slide, s.slide_vel, free, dt);
             }
             let body = &mut self.world.bodies[rod.body];
             body.reset_forces(false);
@@ -501,11 +572,36 @@ impl Table {
         }
         self.apply_ball_drag(dt);
         self.world.step();
-        for i in 0..self.rods.len() {
-            let raw = self.raw_angle(i);
-            let rod = &mut self.rods[i];
-            rod.angle += wrap_angle(raw - rod.angle);
+        match self.integrator {
+            Integrator::Rapier => {
+                for i in 0..self.rods.len() {
+                    let raw = self.raw_angle(i);
+                    let rod = &mut self.rods[i];
+                    rod.angle += wrap_angle(raw - rod.angle);
+                }
+            }
+            Integrator::MujocoEuler => {
+                for (i, s) in before.iter().enumerate() {
+                    self.euler_position_update(i, s, dt);
+                }
+            }
         }
+    }
+
+    /// Puts rod `rod` where MuJoCo's Euler step puts it: each coordinate advanced by `dt`
+    /// times its velocity at the end of the step (rapier turns a body through
+    /// `2 atan(dt w / 2)`, short of `dt w` at the rods' speeds, and its substeps average the
+    /// velocity over the step).
+    fn euler_position_update(&mut self, rod: usize, before: &RodState, dt: f32) {
+        let r = &mut self.rods[rod];
+        let body = &mut self.world.bodies[r.body];
+        let slide = before.slide + dt * body.linvel().dot(r.axis);
+        r.angle = before.angle + dt * body.angvel().dot(r.axis);
+        let local = Pose::from_parts(
+            Vector::new(slide, 0.0, 0.0),
+            Rotation::from_rotation_x(r.angle),
+        );
+        body.set_position(r.frame * local, false);
     }
 
     /// The floor's drag on the ball for the coming step, as a force at its centre that
