@@ -8,6 +8,7 @@ use foosball_rl::env::layout::{
 };
 use foosball_rl::env::{
     EndReason, Env, EnvError, EnvRng, FoosballConfig, FoosballEnv, OpponentKind, Preset,
+    ResetOptions,
 };
 use rand::{Rng, SeedableRng};
 
@@ -175,6 +176,55 @@ fn the_time_limit_truncates() {
     assert_eq!(last.info.end, Some(EndReason::TimeLimit));
     assert!(last.truncated && !last.terminated);
     assert_eq!(env.step(&NEUTRAL).unwrap_err(), EnvError::NeedsReset);
+}
+
+#[test]
+fn with_the_end_rules_off_only_the_time_limit_ends_an_episode() {
+    // A goal under end_on_goal, then a stagnant ball in the goal: neither ends it.
+    let mut config = end_on_goal();
+    config.rules.end_episodes = false;
+    config.max_episode_steps = 60;
+    let mut env = placed(config, [0.0, 58.0], [0.0, 80.0]);
+    let ts = play_out(&mut env, 100);
+    assert_eq!(ts.len(), 60);
+    assert!(ts.iter().any(|t| t.info.in_goal));
+    assert!(ts[..59].iter().all(|t| !t.done()));
+    assert_eq!(ts[59].info.end, Some(EndReason::TimeLimit));
+}
+
+#[test]
+fn a_reset_places_the_ball_where_asked_and_refuses_a_place_off_the_table() {
+    let mut env = FoosballEnv::new(FoosballConfig::preset(Preset::Reference)).unwrap();
+    let mut obs = [0.0; OBS_DIM];
+    let at = |x, y| ResetOptions { ball: Some([x, y]) };
+    env.reset_with(Some(1), &at(-20.0, 30.0), &mut obs).unwrap();
+    // The reference's joint frame: x, y, y again.
+    assert_eq!(&obs[BALL_POS], &[-20.0, 30.0, 30.0]);
+    let placed_obs = obs;
+    // The same seed with a drawn start draws the same episode otherwise.
+    let mut drawn = [0.0; OBS_DIM];
+    env.reset_with(Some(1), &ResetOptions::default(), &mut drawn)
+        .unwrap();
+    assert_eq!(drawn[BALL_POS.end..], placed_obs[BALL_POS.end..]);
+    for bad in [[0.0, 70.0], [40.0, 0.0], [f32::NAN, 0.0]] {
+        let err = env
+            .reset_with(Some(1), &at(bad[0], bad[1]), &mut obs)
+            .unwrap_err();
+        assert!(
+            matches!(err, EnvError::ResetOption { key: "ball", .. }),
+            "{err}"
+        );
+        assert!(err.to_string().contains("playfield"), "{err}");
+    }
+    // A refused reset writes nothing and leaves the episode in progress as it was.
+    assert_eq!(obs, placed_obs);
+    let (after, _) = env.step(&NEUTRAL).unwrap();
+    assert!(
+        (after[0] - drawn[0]).abs() < 1.0,
+        "{} against {}",
+        after[0],
+        drawn[0]
+    );
 }
 
 #[test]

@@ -33,6 +33,7 @@ mod resume;
 mod sb3_math;
 mod self_play;
 mod slurm;
+mod step_response;
 mod sweep;
 mod table_physics;
 mod train_cli;

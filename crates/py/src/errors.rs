@@ -33,6 +33,7 @@ pub fn env_error(e: &EnvError) -> PyErr {
         EnvError::ActionDim { .. } | EnvError::NonFiniteAction { .. } => {
             ActionError::new_err(e.to_string())
         }
+        EnvError::ResetOption { .. } => PyValueError::new_err(e.to_string()),
     }
 }
 

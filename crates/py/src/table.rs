@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 use std::sync::{Mutex, MutexGuard};
 
-use foosball_env::{Env, FoosballEnv};
+use foosball_env::{Env, FoosballEnv, ResetOptions};
 use numpy::{PyArray3, PyReadonlyArray1};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -88,12 +88,20 @@ impl Table {
     }
 
     /// Starts an episode; with a seed the table's random stream restarts from it, without
-    /// one it goes on. Returns the first observation (float32, `obs_shape`).
-    #[pyo3(signature = (seed=None))]
-    fn reset<'py>(&mut self, py: Python<'py>, seed: Option<u64>) -> PyResult<Bound<'py, PyAny>> {
+    /// one it goes on; `ball = (x, y)` (cm, the config's ball frame) places the ball at rest
+    /// there instead of drawing it (ValueError off the playfield). Returns the first
+    /// observation (float32, `obs_shape`).
+    #[pyo3(signature = (seed=None, ball=None))]
+    fn reset<'py>(
+        &mut self,
+        py: Python<'py>,
+        seed: Option<u64>,
+        ball: Option<[f32; 2]>,
+    ) -> PyResult<Bound<'py, PyAny>> {
         guarded(|| {
             let env = self.env.get_mut().unwrap_or_else(|p| p.into_inner());
-            env.reset_into(seed, &mut self.obs);
+            env.reset_with(seed, &ResetOptions { ball }, &mut self.obs)
+                .map_err(|e| env_error(&e))?;
             self.tally = EpisodeTally::default();
             array(py, &self.obs, &self.shape)
         })

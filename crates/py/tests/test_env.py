@@ -107,3 +107,25 @@ def test_config_layers_preset_file_overrides(tmp_path):
     bare = tmp_path / "env.toml"
     bare.write_text(toml)
     assert FoosballEnv(config=bare).config_toml == toml
+
+
+def test_reset_places_the_ball_and_a_probe_runs_past_the_end_rules():
+    env = FoosballEnv(rules={"end_episodes": False})
+    obs, _ = env.reset(seed=3, options={"ball": (5.0, 40.0)})
+    # The reference's joint frame: x, y, and y again in the z slot; at rest.
+    assert obs[:3].tolist() == [5.0, 40.0, 40.0] and not obs[3:6].any()
+    # Held still, the ball stays; the stagnation rule (10 steps) would have ended it.
+    for _ in range(30):
+        obs, reward, terminated, truncated, info = env.step(np.zeros(8, dtype=np.float32))
+        assert not (terminated or truncated)
+    assert obs[:2].tolist() == [5.0, 40.0]
+
+
+@pytest.mark.parametrize(
+    "options, message",
+    [({"ball": (0.0, 500.0)}, "not on the playfield"), ({"ball": (1.0,)}, "must be"), ({"bal": (0, 0)}, "not known")],
+)
+def test_bad_reset_options_name_what_is_wrong(options, message):
+    env = FoosballEnv()
+    with pytest.raises(ValueError, match=message):
+        env.reset(seed=0, options=options)

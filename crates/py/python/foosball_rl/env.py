@@ -65,13 +65,26 @@ class FoosballEnv(gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         """Starts an episode. With `seed` the table restarts its random stream from it;
-        without, the first reset draws a seed from `np_random` and later ones go on."""
+        without, the first reset draws a seed from `np_random` and later ones go on.
+        `options={"ball": (x, y)}` places the ball at rest there (cm, in the config's ball
+        frame) instead of drawing its start; an unknown option or a ball off the playfield
+        raises ValueError."""
         _check_seed(seed)
+        ball = None
+        if options:
+            unknown = sorted(set(options) - {"ball"})
+            if unknown:
+                raise ValueError(f"reset options {unknown} are not known; the one option is 'ball'")
+            ball = options["ball"]
+            if ball is not None:
+                ball = tuple(float(v) for v in ball)
+                if len(ball) != 2:
+                    raise ValueError(f"reset option 'ball' must be (x, y), got {options['ball']!r}")
         super().reset(seed=seed)
         if seed is None and not getattr(self, "_started", False):
             seed = int(self.np_random.integers(0, 2**63))
         self._started = True
-        return self._table.reset(seed), {}
+        return self._table.reset(seed, ball), {}
 
     def step(self, action):
         """One agent step: `(obs, reward, terminated, truncated, info)`."""
