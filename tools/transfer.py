@@ -1,0 +1,164 @@
+"""Plays a run's networks on the paper code's MuJoCo model and reports the test's metrics
+beside the run's own: does a policy trained on our table play the reference's game?
+
+A measuring instrument, not part of the project (MuJoCo is never a dependency of the
+project or of CI). It needs, in a throwaway venv, `pip install mujoco==3.3.2 numpy
+gymnasium`, a checkout of the paper's code (Foosball_CU, whose
+`ai_agents/v2/gym/full_information_protagonist_antagonist_gym.py` is the gym played,
+unchanged) and the `act` binary of this project (`cargo build --release --bin act`):
+
+    FOOSBALL_CU=<checkout> python tools/transfer.py results/recipe/sac-recipe-seed1 \\
+        --episodes 200 --out /tmp/transfer-seed1.json
+
+The run's networks answer the gym's observations (the same 38 values in the same joint
+frame) through `act`; the gym is stepped with 20 x action, as its [-20, 20] action space
+is what SB3 scaled the policy's [-1, 1] onto. Starts are the gym's own draw,
+`numpy.random.seed(seed)` before the reset of episode `seed` (0, 1, ...). The metrics are
+the test's five and the episode length, each with its 95 % interval (Wilson for the
+score rate, normal for the means); ends are classified as the gym decides them.
+"""
+import argparse
+import json
+import math
+import os
+import subprocess
+import sys
+import types
+
+import numpy as np
+
+GOAL = (0.0, 65.0)  # the gym's reward point and goal line, joint frame
+
+
+def load_gym(checkout):
+    # The gym's render mixin starts GLFW in its constructor, which needs a display; the
+    # tool never renders, so it gets a stand-in that starts and does nothing else.
+    sys.modules["glfw"] = types.SimpleNamespace(init=lambda: True)
+    os.environ.setdefault("SIM_PATH", os.path.join(checkout, "foosball_sim/v2/foosball_sim.xml"))
+    sys.path.insert(0, checkout)
+    from ai_agents.v2.gym.full_information_protagonist_antagonist_gym import FoosballEnv
+
+    return FoosballEnv()
+
+
+def wilson(k, n, z=1.96):
+    p = k / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return [p, centre - half, centre + half]
+
+
+def mean_ci(values, z=1.96):
+    a = np.asarray(values, dtype=float)
+    m = float(a.mean())
+    se = float(a.std(ddof=1) / math.sqrt(len(a))) if len(a) > 1 else 0.0
+    return [m, m - z * se, m + z * se]
+
+
+def play(env, act, seed):
+    """One episode: its summary (the test's per-episode quantities and its end)."""
+    np.random.seed(seed)
+    obs, _ = env.reset()
+    total, steps, distances, speeds, scored = 0.0, 0, [], [], False
+    while True:
+        act.stdin.write(" ".join(f"{v:.7g}" for v in obs) + "\n")
+        act.stdin.flush()
+        line = act.stdout.readline()
+        if not line:
+            raise RuntimeError("act stopped answering: " + act.stderr.read())
+        action = np.array([float(v) for v in line.split()], dtype=np.float64)
+        obs, reward, terminated, _, _ = env.step(20.0 * action)
+        steps += 1
+        total += reward
+        x, y = float(obs[0]), float(obs[1])
+        distances.append(math.hypot(x - GOAL[0], y - GOAL[1]))
+        speeds.append(float(np.linalg.norm(obs[3:6])))
+        scored = scored or y > GOAL[1]
+        if terminated:
+            if env.ball_stopped_count >= 10:
+                end = "stagnant"
+            elif env.no_progress_steps >= env.max_no_progress_steps:
+                end = "no_progress"
+            elif not env.is_healthy:
+                end = "physics_fault"
+            else:
+                end = "time_limit"
+            return {
+                "return": total,
+                "steps": steps,
+                "mean_distance": float(np.mean(distances)),
+                "mean_speed": float(np.mean(speeds)),
+                "final_distance": distances[-1],
+                "scored": scored,
+                "end": end,
+            }
+
+
+def summarise(episodes):
+    n = len(episodes)
+    ends = {}
+    for e in episodes:
+        ends[e["end"]] = ends.get(e["end"], 0) + 1
+    return {
+        "episodes": n,
+        "score_rate": wilson(sum(e["scored"] for e in episodes), n),
+        "mean_goal_distance": mean_ci([e["mean_distance"] for e in episodes]),
+        "mean_ball_speed": mean_ci([e["mean_speed"] for e in episodes]),
+        "mean_return": mean_ci([e["return"] for e in episodes]),
+        "mean_final_distance": mean_ci([e["final_distance"] for e in episodes]),
+        "mean_length": mean_ci([e["steps"] for e in episodes]),
+        "end_reasons": {k: v / n for k, v in sorted(ends.items())},
+    }
+
+
+def ours(run):
+    """The run's own test metrics as [value, low, high]."""
+    with open(os.path.join(run, "test", "metrics.json")) as f:
+        m = json.load(f)
+    out = {}
+    for key in ["score_rate", "mean_goal_distance", "mean_ball_speed", "mean_return",
+                "mean_final_distance", "mean_length"]:
+        e = m[key]
+        out[key] = [e["mean"], *e["ci95"]]
+    out["episodes"] = m["episodes"]
+    out["end_reasons"] = m.get("end_reasons", {})
+    return out
+
+
+def table(run, theirs, mine):
+    rows = [f"| metric | on the MuJoCo model ({theirs['episodes']} episodes) | the run's own test ({mine['episodes']}) |",
+            "| --- | --- | --- |"]
+    for key, label in [("score_rate", "score rate"), ("mean_goal_distance", "mean distance to goal (cm)"),
+                       ("mean_ball_speed", "mean ball speed (cm/s)"), ("mean_return", "mean episode reward"),
+                       ("mean_final_distance", "mean final distance (cm)"), ("mean_length", "mean episode length (steps)")]:
+        cell = lambda v: f"{v[0]:.4g} [{v[1]:.4g}, {v[2]:.4g}]"
+        rows.append(f"| {label} | {cell(theirs[key])} | {cell(mine[key])} |")
+    ends = lambda d: ", ".join(f"{k} {100 * v:.1f} %" for k, v in d.items())
+    rows.append(f"| ends | {ends(theirs['end_reasons'])} | {ends(mine['end_reasons'])} |")
+    return f"{run}\n\n" + "\n".join(rows)
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("run", help="a run directory written by train")
+    p.add_argument("--checkpoint", default="last", choices=["best", "last"])
+    p.add_argument("--episodes", type=int, default=200)
+    p.add_argument("--act", default="target/release/act", help="the act binary")
+    p.add_argument("--out", help="write the summary as JSON here")
+    a = p.parse_args()
+    env = load_gym(os.environ["FOOSBALL_CU"])
+    act = subprocess.Popen([a.act, "--run", a.run, "--checkpoint", a.checkpoint], stdin=subprocess.PIPE,
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, bufsize=1)
+    episodes = [play(env, act, seed) for seed in range(a.episodes)]
+    act.stdin.close()
+    act.wait()
+    theirs = summarise(episodes)
+    mine = ours(a.run)
+    print(table(a.run, theirs, mine))
+    if a.out:
+        with open(a.out, "w") as f:
+            json.dump({"run": a.run, "checkpoint": a.checkpoint, "mujoco": theirs, "ours": mine}, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()
