@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 const FIXTURE: &str = "crates/py/tests/data/trajectories.json";
 
 /// Agent steps of one recorded episode at most.
-const EPISODE_CAP: usize = 80;
+const EPISODE_CAP: usize = 200;
 
 /// Action value `k` at step `t` of table `env`: a smooth sweep, 1.3 x beyond [-1, 1].
 fn action(env: usize, t: usize, k: usize) -> f32 {
