@@ -9,6 +9,7 @@
 //! rods collide with the ball alone, and the table collides with the ball alone.
 
 use core::f32::consts::PI;
+use std::sync::OnceLock;
 
 use rapier3d::prelude::*;
 
@@ -287,17 +288,22 @@ fn rod_colliders(
 }
 
 /// The mesh's lower leg and foot ([`foosman::MESH_LEG_PROFILE`]) as a convex prism
-/// ±[`foosman::LEG_HALF_X`] across, in the man's frame.
+/// ±[`foosman::LEG_HALF_X`] across, in the man's frame. The hull is computed once and
+/// shared by every man of every table (a reset builds 22 of them).
 fn mesh_leg() -> ColliderBuilder {
-    let points: Vec<Vector> = [-foosman::LEG_HALF_X, foosman::LEG_HALF_X]
-        .into_iter()
-        .flat_map(|x| {
-            foosman::MESH_LEG_PROFILE
-                .iter()
-                .map(move |&[y, z]| Vector::new(x, y, z))
-        })
-        .collect();
-    ColliderBuilder::convex_hull(&points).expect("the leg profile spans a volume")
+    static LEG: OnceLock<SharedShape> = OnceLock::new();
+    let shape = LEG.get_or_init(|| {
+        let points: Vec<Vector> = [-foosman::LEG_HALF_X, foosman::LEG_HALF_X]
+            .into_iter()
+            .flat_map(|x| {
+                foosman::MESH_LEG_PROFILE
+                    .iter()
+                    .map(move |&[y, z]| Vector::new(x, y, z))
+            })
+            .collect();
+        SharedShape::convex_hull(&points).expect("the leg profile spans a volume")
+    });
+    ColliderBuilder::new(shape.clone())
 }
 
 /// `a` wrapped into (-π, π].
