@@ -10,6 +10,7 @@
 
 mod common;
 
+mod act;
 mod algo_reproducibility;
 mod architecture;
 mod committed_runs;
