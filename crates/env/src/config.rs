@@ -68,10 +68,10 @@ pub enum Preset {
     /// it is what produced the paper's figures.
     #[default]
     Reference,
-    /// The second `reference` of this project: the same rules and ball, with this
-    /// project's first step ([`Integrator::Rapier`]) and leg blocks, whose rods reach the
-    /// reference's end states but lag its first steps 2-4x. The game of `results/figure2`, the recipe
-    /// and the first leagues.
+    /// The second `reference` of this project: the same rules, with this project's first
+    /// step ([`Integrator::Rapier`]), leg blocks and the ball's own friction (0.01), whose
+    /// rods reach the reference's end states but lag its first steps 2-4x. The game of
+    /// `results/figure2`, the recipe and the first leagues.
     ReferenceV2,
     /// The paper's text made exact on the code's table: `alpha - |ball_xy - (0, 64)| +
     /// beta * [ball_y >= 64]` on every step (the text's numbers read in the code's frame),

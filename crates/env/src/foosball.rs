@@ -323,8 +323,7 @@ impl FoosballEnv {
     fn ball_start_world(&self, seen: [f32; 2]) -> Result<[f32; 2], EnvError> {
         let [ox, oy, _] = self.config.ball_frame.origin();
         let [x, y] = [seen[0] + ox, seen[1] + oy];
-        let limit_x = geometry::FIELD_HALF_WIDTH - geometry::BALL_RADIUS;
-        let limit_y = geometry::FIELD_HALF_LENGTH - geometry::BALL_RADIUS;
+        let [limit_x, limit_y] = ball_centre_limits();
         if !(x.abs() <= limit_x && y.abs() <= limit_y) {
             return Err(EnvError::ResetOption {
                 key: "ball",
@@ -694,13 +693,20 @@ impl Env for FoosballEnv {
     }
 }
 
+/// How far from the centre a ball's centre can lie on the playfield, world |x| and |y|, cm.
+fn ball_centre_limits() -> [f32; 2] {
+    [
+        geometry::FIELD_HALF_WIDTH - geometry::BALL_RADIUS,
+        geometry::FIELD_HALF_LENGTH - geometry::BALL_RADIUS,
+    ]
+}
+
 /// Where a serve puts the ball (world x, y, cm): drawn from `config.start` (in a
 /// `black_share` of the serves turned 180 degrees about the centre), kept on the field.
 fn serve_point(config: &FoosballConfig, rng: &mut EnvRng) -> [f32; 2] {
     let s = &config.start;
     let [x_mean, y_mean] = config.start_world();
-    let limit_x = geometry::FIELD_HALF_WIDTH - geometry::BALL_RADIUS;
-    let limit_y = geometry::FIELD_HALF_LENGTH - geometry::BALL_RADIUS;
+    let [limit_x, limit_y] = ball_centre_limits();
     let x = (x_mean + s.x_std * gaussian(rng)).clamp(-limit_x, limit_x);
     let y = (y_mean + s.y_std * gaussian(rng)).clamp(-limit_y, limit_y);
     let black_serves = s.black_share > 0.0 && rng.random::<f32>() < s.black_share;

@@ -250,15 +250,14 @@ fn rod_colliders(
     let torso_vol = foosman::TORSO_HALF_X * foosman::TORSO_HALF_Y * torso_half_z;
     let leg_vol = foosman::LEG_HALF_X * foosman::LEG_HALF_Y * leg_half_z;
     let torso_mass = foosman::MASS * torso_vol / (torso_vol + leg_vol);
-    // The leg block's extent along the table in the rod's frame (+y: the way the team
-    // attacks); the mesh's leg has its own outline.
-    let [leg_back, leg_front] = match men {
-        MenShape::Box => [-foosman::LEG_HALF_Y, foosman::LEG_HALF_Y],
-        MenShape::Reference | MenShape::Mesh => foosman::REFERENCE_LEG_Y,
-    };
-    let leg_y = 0.5 * (leg_front + leg_back);
     let torso_z = 0.5 * (foosman::HEAD_TOP - foosman::WAIST);
     let leg_z = -0.5 * (foosman::WAIST + foosman::FOOT_BOTTOM);
+    // A leg block from `back` to `front` along the table in the rod's frame (+y: the way
+    // the team attacks), under the man at `x`.
+    let leg_block = |x: f32, [back, front]: [f32; 2]| {
+        ColliderBuilder::cuboid(foosman::LEG_HALF_X, 0.5 * (front - back), leg_half_z)
+            .translation(Vector::new(x, 0.5 * (front + back), leg_z))
+    };
     let man_collider = |shape: ColliderBuilder, m: f32| {
         shape
             .mass(m)
@@ -274,12 +273,8 @@ fn rod_colliders(
             torso_mass,
         ));
         let leg = match men {
-            MenShape::Box | MenShape::Reference => ColliderBuilder::cuboid(
-                foosman::LEG_HALF_X,
-                0.5 * (leg_front - leg_back),
-                leg_half_z,
-            )
-            .translation(Vector::new(x, leg_y, leg_z)),
+            MenShape::Box => leg_block(x, [-foosman::LEG_HALF_Y, foosman::LEG_HALF_Y]),
+            MenShape::Reference => leg_block(x, foosman::REFERENCE_LEG_Y),
             MenShape::Mesh => mesh_leg().translation(Vector::new(x, 0.0, 0.0)),
         };
         out.push(man_collider(leg, foosman::MASS - torso_mass));
@@ -339,12 +334,6 @@ impl Table {
             // them: none ahead of touching, so a man meets the ball a step after it
             // reaches it, not in the step it does (rapier's speculative contacts).
             world.integration_parameters.normalized_prediction_distance = 0.0;
-            if let Ok(v) = std::env::var("SOFT") {
-                let f: Vec<f32> = v.split(',').map(|x| x.parse().unwrap()).collect();
-                world.integration_parameters.contact_softness = SpringCoefficients::new(f[0], f[1]);
-                world.integration_parameters.static_contact_softness =
-                    SpringCoefficients::new(f[0], f[1]);
-            }
         }
 
         let ground = world.insert_body(RigidBodyBuilder::fixed());
