@@ -2,7 +2,7 @@
 into a few categories by symbol name (docs/table.md, "Speed"). A measuring instrument:
 
     RAYON_NUM_THREADS=1 perf record -F 2000 -g -o /tmp/perf.sac64 \\
-        target/release/deps/update_speed-<hash> --sizes 64x2 --reps 200 --algos sac
+        target/release/deps/update_speed-<hash> --sizes 64x2 --reps 100 --algos sac
     python3 tools/perf_categories.py /tmp/perf.sac64
 
 Prints a markdown table, one row per category, its share of the samples in percent.
