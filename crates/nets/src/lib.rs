@@ -1,5 +1,6 @@
 //! Burn networks for foosball-rl: the MLP, the image encoder (NatureCNN) and the
-//! actor/critic heads of PPO, SAC and TD3,
+//! actor/critic heads of PPO, SAC and TD3, the MLP on host memory with its backward pass
+//! written out (the small-network path, [`host_mlp`]),
 //! the action distributions, parameter-wise utilities (polyak averaging, flat and
 //! own-rank views), Adam with PyTorch's epsilon and global-norm gradient clipping
 //! (computed on the device on GPUs: no host reads in a step), counted host reads and
@@ -19,6 +20,7 @@ pub mod cnn;
 pub mod critic;
 pub mod distributions;
 pub mod host;
+pub mod host_mlp;
 pub mod init;
 pub mod mlp;
 pub mod optim;
@@ -33,6 +35,7 @@ pub use burn;
 pub use burn::tensor::{Device, Tensor, TensorData};
 pub use cnn::{CnnConfig, ConvLayer, Encoder, ObsShape};
 pub use critic::{QNetwork, TwinQ, ValueCritic};
+pub use host_mlp::{HostMlp, MlpTape};
 pub use init::NetInit;
 pub use mlp::{Activation, Mlp};
 pub use optim::{Adam, AdamConfig, StepReport};

@@ -126,6 +126,23 @@ impl Mlp {
         Ok(())
     }
 
+    /// `[input, hidden..., output]`.
+    pub fn widths(&self) -> Vec<usize> {
+        std::iter::once(self.input_dim())
+            .chain(self.layers.iter().map(|l| l.weight.dims()[1]))
+            .collect()
+    }
+
+    /// The non-linearity between hidden layers.
+    pub fn activation(&self) -> Activation {
+        self.activation
+    }
+
+    /// Whether every hidden layer is normalised.
+    pub fn has_layer_norm(&self) -> bool {
+        !self.norms.is_empty()
+    }
+
     /// Width of the input layer.
     pub fn input_dim(&self) -> usize {
         self.layers[0].weight.dims()[0]

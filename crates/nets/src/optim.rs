@@ -203,6 +203,14 @@ pub struct Adam {
     host_fast_path: bool,
 }
 
+/// The report of a host step: the norm and whether the step was applied.
+fn host_report(grad_norm: f32, applied: bool) -> StepReport {
+    StepReport {
+        grad_norm: Scalar::Host(f64::from(grad_norm)),
+        applied: Scalar::Host(f64::from(u8::from(applied))),
+    }
+}
+
 /// PyTorch's `clip_grad_norm_` factor: `min(1, max_norm / (norm + 1e-6))`.
 pub fn clip_coefficient(grad_norm: f32, max_norm: Option<f32>) -> f32 {
     max_norm.map_or(1.0, |max| (max / (grad_norm + 1e-6)).min(1.0))
@@ -338,32 +346,8 @@ impl Adam {
             .map(|g| sum_squares(g.as_slice::<f32>().expect("float gradients are f32")))
             .sum::<f64>()
             .sqrt() as f32;
-        let report = |applied: bool| StepReport {
-            grad_norm: Scalar::Host(f64::from(grad_norm)),
-            applied: Scalar::Host(f64::from(u8::from(applied))),
-        };
-        if !grad_norm.is_finite() {
-            return (module, report(false));
-        }
-        let steps = match &mut self.steps {
-            Steps::Host(k) => k,
-            Steps::Device(_) => unreachable!("a host optimiser counts its steps on the host"),
-        };
-        *steps += 1;
-        let AdamConfig {
-            beta1,
-            beta2,
-            eps,
-            max_grad_norm,
-        } = self.config;
-        let t = *steps as i32;
-        let update = Update {
-            beta1,
-            beta2,
-            eps,
-            step_size: lr as f32 / (1.0 - beta1.powi(t)),
-            bias2_sqrt: (1.0 - beta2.powi(t)).sqrt(),
-            scale: clip_coefficient(grad_norm, max_grad_norm),
+        let Some(update) = self.host_update(grad_norm, lr) else {
+            return (module, host_report(grad_norm, false));
         };
         let moments = &mut self.moments;
         let module = map_flat_params(module, |i, p| {
@@ -379,7 +363,60 @@ impl Adam {
             moments[i] = Some(Moments::Host(m, v));
             p
         });
-        (module, report(true))
+        (module, host_report(grad_norm, true))
+    }
+
+    /// The [`Update`] of a host step whose gradient has global norm `grad_norm`, the step
+    /// counted; `None`, nothing counted, when the norm is not finite.
+    fn host_update(&mut self, grad_norm: f32, lr: f64) -> Option<Update> {
+        if !grad_norm.is_finite() {
+            return None;
+        }
+        let steps = match &mut self.steps {
+            Steps::Host(k) => k,
+            Steps::Device(_) => unreachable!("a host optimiser counts its steps on the host"),
+        };
+        *steps += 1;
+        let AdamConfig {
+            beta1,
+            beta2,
+            eps,
+            max_grad_norm,
+        } = self.config;
+        let t = *steps as i32;
+        Some(Update {
+            beta1,
+            beta2,
+            eps,
+            step_size: lr as f32 / (1.0 - beta1.powi(t)),
+            bias2_sqrt: (1.0 - beta2.powi(t)).sqrt(),
+            scale: clip_coefficient(grad_norm, max_grad_norm),
+        })
+    }
+
+    /// One update of a network kept as one flat host buffer ([`crate::HostMlp`]): `params`
+    /// and their gradient `grads`, of one length, taken as a single parameter (its
+    /// moments and snapshot entries are those of a one-parameter module). The formulas,
+    /// the clipping and the skipping of a non-finite gradient are [`Adam::step`]'s.
+    pub fn step_flat(&mut self, params: &mut [f32], grads: &[f32], lr: f64) -> StepReport {
+        assert_eq!(params.len(), grads.len(), "a gradient per parameter");
+        self.check_module(1);
+        let grad_norm = sum_squares(grads).sqrt() as f32;
+        let Some(update) = self.host_update(grad_norm, lr) else {
+            return host_report(grad_norm, false);
+        };
+        let n = grads.len();
+        let moments =
+            self.moments[0].get_or_insert_with(|| Moments::Host(vec![0.0; n], vec![0.0; n]));
+        if let Moments::Device(mv) = moments {
+            let [m, v] = mv.as_ref().clone();
+            *moments = Moments::Host(to_vec(m.flat()), to_vec(v.flat()));
+        }
+        let Moments::Host(m, v) = moments else {
+            unreachable!("moved to the host above")
+        };
+        update.host(params, grads, m, v);
+        host_report(grad_norm, true)
     }
 
     /// The step as tensor ops, with nothing read back from the device.
