@@ -21,10 +21,12 @@ use foosball_nets::{
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use std::time::Instant;
 
 #[path = "../../../benches/figures.rs"]
 mod figures;
+#[path = "../../../benches/timing.rs"]
+mod timing;
+use timing::time_ms;
 
 #[global_allocator]
 static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
@@ -32,24 +34,6 @@ static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 const BATCH: usize = 256;
 const OBS: usize = 38;
 const ACT: usize = 8;
-
-/// Milliseconds per call of `f`, the median of 7 timings of 50 calls after 20 warm-ups.
-fn time_ms(mut f: impl FnMut()) -> f64 {
-    for _ in 0..20 {
-        f();
-    }
-    let mut samples: Vec<f64> = (0..7)
-        .map(|_| {
-            let t = Instant::now();
-            for _ in 0..50 {
-                f();
-            }
-            t.elapsed().as_secs_f64() * 1e3 / 50.0
-        })
-        .collect();
-    samples.sort_by(f64::total_cmp);
-    samples[3]
-}
 
 fn random(n: usize, rng: &mut ChaCha8Rng) -> Vec<f32> {
     (0..n).map(|_| rng.random_range(-1.0..1.0)).collect()

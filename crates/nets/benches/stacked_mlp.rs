@@ -14,10 +14,12 @@ use foosball_nets::init::uniform_tensor;
 use foosball_nets::{Backend, Device, Tensor};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use std::time::Instant;
 
 #[path = "../../../benches/figures.rs"]
 mod figures;
+#[path = "../../../benches/timing.rs"]
+mod timing;
+use timing::time_ms;
 
 #[global_allocator]
 static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
@@ -50,24 +52,6 @@ fn stacked(x: &Tensor<2>, layers: &[(Tensor<3>, Tensor<3>)], k: usize) -> Tensor
         let y = y.matmul(w.clone()) + b.clone();
         if i < last { relu(y) } else { y }
     })
-}
-
-/// Milliseconds per call of `f`, the median of 7 timings of 50 calls after 20 warm-ups.
-fn time_ms(mut f: impl FnMut()) -> f64 {
-    for _ in 0..20 {
-        f();
-    }
-    let mut samples: Vec<f64> = (0..7)
-        .map(|_| {
-            let t = Instant::now();
-            for _ in 0..50 {
-                f();
-            }
-            t.elapsed().as_secs_f64() * 1e3 / 50.0
-        })
-        .collect();
-    samples.sort_by(f64::total_cmp);
-    samples[3]
 }
 
 fn host<const D: usize>(t: Tensor<D>) -> Vec<f32> {
