@@ -19,8 +19,9 @@
 //! configs use to Burn's autodiff within 1e-5.
 
 use crate::mlp::{Activation, Mlp};
-use crate::params::{flat_params, map_flat_params};
+use crate::params::{host_params, map_flat_params};
 use burn::tensor::{Tensor, TensorData};
+use std::ops::Range;
 
 /// An MLP's widths, activation and parameters, in host memory.
 #[derive(Clone, Debug, PartialEq)]
@@ -50,6 +51,11 @@ impl MlpTape {
     pub fn batch(&self) -> usize {
         self.batch
     }
+}
+
+/// Parameters of a dense layer of widths `[d_in, d_out]`: `W` and `b`.
+fn layer_len(widths: &[usize]) -> usize {
+    (widths[0] + 1) * widths[1]
 }
 
 /// A row-major operand of a matrix product: `data[i * row_stride + j * col_stride]` is
@@ -140,7 +146,7 @@ impl HostMlp {
                 "an MLP needs an input and an output width, none zero: {widths:?}"
             ));
         }
-        let expected: usize = widths.windows(2).map(|w| (w[0] + 1) * w[1]).sum();
+        let expected: usize = widths.windows(2).map(layer_len).sum();
         if params.len() != expected {
             return Err(format!(
                 "{} parameters for widths {widths:?}, which take {expected}",
@@ -160,11 +166,7 @@ impl HostMlp {
         if mlp.has_layer_norm() {
             return Err("layer normalisation is not on the host MLP path".into());
         }
-        let params = flat_params(mlp)
-            .into_iter()
-            .flat_map(crate::host::to_vec)
-            .collect();
-        Self::new(mlp.widths(), mlp.activation(), params)
+        Self::new(mlp.widths(), mlp.activation(), host_params(mlp).concat())
     }
 
     /// `mlp` with this network's parameters (same widths and activation; their ids and
@@ -211,16 +213,16 @@ impl HostMlp {
         &mut self.params
     }
 
+    /// Where layer `l`'s `W` then `b` lie in the parameters (and in a gradient buffer).
+    fn layer_range(&self, l: usize) -> Range<usize> {
+        let start: usize = self.widths[..=l].windows(2).map(layer_len).sum();
+        start..start + layer_len(&self.widths[l..l + 2])
+    }
+
     /// Layer `l`'s `(W, b)`.
     fn layer(&self, l: usize) -> (&[f32], &[f32]) {
-        let start: usize = self.widths[..=l]
-            .windows(2)
-            .map(|w| (w[0] + 1) * w[1])
-            .sum();
-        let (d_in, d_out) = (self.widths[l], self.widths[l + 1]);
-        let weight = &self.params[start..start + d_in * d_out];
-        let bias = &self.params[start + d_in * d_out..start + (d_in + 1) * d_out];
-        (weight, bias)
+        let d_in_out = self.widths[l] * self.widths[l + 1];
+        self.params[self.layer_range(l)].split_at(d_in_out)
     }
 
     /// `x [batch, input] -> [batch, output]`, kept in `tape` for [`HostMlp::backward`].
@@ -292,7 +294,6 @@ impl HostMlp {
         } = tape;
         delta.clear();
         delta.extend_from_slice(dy);
-        let mut offset = self.params.len();
         for l in (0..layers).rev() {
             let (d_in, d_out) = (self.widths[l], self.widths[l + 1]);
             if l + 1 < layers {
@@ -309,10 +310,8 @@ impl HostMlp {
                         .for_each(|(d, &a)| *d *= 1.0 - a * a),
                 }
             }
-            offset -= (d_in + 1) * d_out;
             if let Some(grads) = grads.as_deref_mut() {
-                let layer = &mut grads[offset..offset + (d_in + 1) * d_out];
-                let (grad_w, grad_b) = layer.split_at_mut(d_in * d_out);
+                let (grad_w, grad_b) = grads[self.layer_range(l)].split_at_mut(d_in * d_out);
                 for row in delta.chunks_exact(d_out) {
                     grad_b.iter_mut().zip(row).for_each(|(g, d)| *g += d);
                 }
@@ -367,6 +366,14 @@ mod tests {
         (0..n).map(|_| rng.random_range(-1.0..1.0)).collect()
     }
 
+    /// `mlp`'s parameter gradients taken out of `grads`, in the host layout.
+    fn burn_gradients(mlp: &Mlp, grads: &mut burn::tensor::Gradients) -> Vec<f32> {
+        flat_grads(mlp, grads)
+            .into_iter()
+            .flat_map(|g| to_vec(g.expect("every parameter has a gradient")))
+            .collect()
+    }
+
     /// Largest `|a - b|` over the largest `|b|` (at least 1).
     fn relative_gap(a: &[f32], b: &[f32]) -> f32 {
         assert_eq!(a.len(), b.len());
@@ -395,10 +402,7 @@ mod tests {
         let dy_t = Tensor::<2>::from_data(TensorData::new(dy.clone(), [batch, output]), &device);
         let mut grads = (y_t.clone() * dy_t).sum().backward();
         let burn_dx = to_vec(x_t.grad(&grads).unwrap());
-        let burn_grads: Vec<f32> = flat_grads(&mlp, &mut grads)
-            .into_iter()
-            .flat_map(|g| to_vec(g.unwrap()))
-            .collect();
+        let burn_grads = burn_gradients(&mlp, &mut grads);
         let burn_y = to_vec(y_t.inner());
 
         let host = HostMlp::from_mlp(&mlp).unwrap();
@@ -480,10 +484,7 @@ mod tests {
                 let x = Tensor::<2>::from_data(TensorData::new(x.clone(), [10, 5]), &device);
                 mlp.forward(x).square().sum().backward()
             };
-            let g: Vec<f32> = flat_grads(&mlp, &mut loss(&mlp))
-                .into_iter()
-                .flat_map(|g| to_vec(g.unwrap()))
-                .collect();
+            let g = burn_gradients(&mlp, &mut loss(&mlp));
             let mut grads = loss(&mlp);
             let module_report = module_adam.step_in_place(&mut mlp, &mut grads, 1e-2);
             let flat_report = flat_adam.step_flat(host.params_mut(), &g, 1e-2);
