@@ -9,13 +9,23 @@ use foosball_nets::{Backend, BackendError, Device, ObsShape};
 use std::path::Path;
 
 /// The agent `config` asks for, its networks drawn from the learner stream; its input is
-/// the observation `config.env` gives (38 state values, or an image through a CNN).
+/// the observation `config.env` gives (38 state values, or an image through a CNN). With
+/// `backend = "host"` the same networks compute on the host MLP path (a validated config).
 pub fn build_agent(config: &RunConfig, device: &Device) -> Box<dyn Agent + Send> {
     let seed = derive_seed(config.protocol.seed, LEARNER, 0);
     let (o, a) = (obs_shape(&config.env.observation), layout::ACTION_DIM);
     match &config.algorithm {
         AlgoConfig::Ppo(c) => Box::new(Ppo::new(o, a, c.clone(), seed, device)),
-        AlgoConfig::Sac(c) => Box::new(Sac::agent(o, a, c.clone(), seed, device)),
+        AlgoConfig::Sac(c) => {
+            let mut agent = Sac::agent(o, a, c.clone(), seed, device);
+            if config.protocol.backend == Some(Backend::Host) {
+                agent
+                    .learner_mut()
+                    .on_host_path()
+                    .expect("RunConfig::validate admits only what the host path computes");
+            }
+            Box::new(agent)
+        }
         AlgoConfig::Td3(c) => Box::new(Td3::agent(o, a, c.clone(), seed, device)),
     }
 }

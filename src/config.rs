@@ -705,7 +705,28 @@ impl RunConfig {
                 .conv_output(o.channels(), h, w)
                 .map_err(|e| ConfigError::new(format!("{}.net.cnn", self.algo()), e))?;
         }
+        if p.backend == Some(Backend::Host) {
+            self.check_host_path()?;
+        }
         Ok(())
+    }
+
+    /// What `backend = "host"` computes: SAC's MLPs on vector observations, without
+    /// layer normalisation.
+    fn check_host_path(&self) -> Result<(), ConfigError> {
+        let why = if self.algo() != Algo::Sac {
+            "runs SAC only so far: use flex for PPO and TD3"
+        } else if self.env.observation.kind == ObservationKind::Image {
+            "computes vector observations only: use flex or a GPU backend for images"
+        } else if self.algorithm.net().critic_layer_norm {
+            "does not compute layer normalisation: set sac.net.critic_layer_norm = false or use flex"
+        } else {
+            return Ok(());
+        };
+        Err(ConfigError::new(
+            "protocol.backend",
+            format!("`host` {why}"),
+        ))
     }
 
     /// The algorithm to train.

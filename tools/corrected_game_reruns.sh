@@ -9,10 +9,14 @@
 #
 # Progress: runs/logs/queue.log (a line per finished step), runs/logs/*.log, and
 # `target/release/sweep --status --out results/figure2-v3`.
+#
+# BIN=DIR takes the binaries from DIR: the runs begun with one build must be resumed with
+# the same code, or their later epochs compute on other rounding (Figure 2 v3 began on
+# 0e584fd's; SAC's update was rewritten after it, the same math, not the same bits).
 set -uo pipefail
 cd "$(dirname "$0")/.."
 mkdir -p runs/logs
-bin=target/release
+bin=${BIN:-target/release}
 log=runs/logs/queue.log
 echo "$(date -u +%FT%TZ) queue start" >> "$log"
 

@@ -11,9 +11,12 @@ ratio is read from one run on one machine. A measuring instrument, not part of t
 
     python3 -m venv /tmp/sb3 && /tmp/sb3/bin/pip install stable-baselines3
     /tmp/sb3/bin/python tools/sb3_update_speed.py [--sizes 64x2,256x2] [--reps 40] [--core 0]
+        [--bench target/release/deps/update_speed-HASH]
 
-Writes `target/bench/update_vs_sb3.json` (both figures and their ratio per algorithm and
-size) and prints a markdown table. `--skip-ours` times SB3 alone.
+Writes `target/bench/update_vs_sb3.json` (the figures and their ratios per algorithm and
+size: ours on flex, ours on the host MLP path where it runs the algorithm, SB3) and prints
+a markdown table. `--skip-ours` times SB3 alone; `--bench` runs an already built bench
+binary instead of `cargo bench` (which builds with the package's own features).
 """
 
 from __future__ import annotations
@@ -94,13 +97,18 @@ def sb3_update_ms(algo: str, width: int, depth: int, reps: int) -> float:
     return statistics.median(times)
 
 
-def ours(sizes: str, reps: int, core: int) -> dict:
-    """Runs our update bench on `core`, one rayon thread; its figures by key."""
+def ours(sizes: str, reps: int, core: int, bench: str | None) -> dict:
+    """Runs our update bench on `core`, one rayon thread, flex then the host path; its
+    figures by key (the host path's ending in `_host`)."""
     env = dict(os.environ, RAYON_NUM_THREADS="1")
-    cmd = ["cargo", "bench", "-p", "foosball-algos", "--bench", "update_speed", "--"]
+    if bench:
+        cmd = [bench]
+    else:
+        cmd = ["cargo", "bench", "-p", "foosball-algos", "--bench", "update_speed", "--"]
     cmd += ["--sizes", sizes, "--reps", str(reps), "--algos", "sac,td3"]
+    cmd += ["--backend", "flex,host"]
     subprocess.run(["taskset", "-c", str(core), *cmd], cwd=ROOT, env=env, check=True)
-    return json.loads((ROOT / "target/bench/update_speed.json").read_text())
+    return json.loads((ROOT / "target/bench/update_speed_flex,host.json").read_text())
 
 
 def main() -> None:
@@ -109,11 +117,12 @@ def main() -> None:
     p.add_argument("--reps", type=int, default=40)
     p.add_argument("--core", type=int, default=0)
     p.add_argument("--skip-ours", action="store_true")
+    p.add_argument("--bench", help="a built update_speed bench binary")
     args = p.parse_args()
     if shutil.which("taskset") is None:
         raise SystemExit("taskset (util-linux) is needed to pin both benches to one core")
 
-    ours_ms = {} if args.skip_ours else ours(args.sizes, args.reps, args.core)
+    ours_ms = {} if args.skip_ours else ours(args.sizes, args.reps, args.core, args.bench)
     os.sched_setaffinity(0, {args.core})
     import torch
 
@@ -124,13 +133,16 @@ def main() -> None:
         for algo in ("sac", "td3"):
             sb3 = sb3_update_ms(algo, width, depth, args.reps)
             mine = ours_ms.get(f"{algo}_update_ms_{size}")
+            host = ours_ms.get(f"{algo}_update_ms_{size}_host")
             rows.append(
                 {
                     "algo": algo,
                     "hidden": size,
                     "ours_ms": mine,
+                    "ours_host_ms": host,
                     "sb3_ms": sb3,
                     "sb3_over_ours": sb3 / mine if mine else None,
+                    "sb3_over_ours_host": sb3 / host if host else None,
                 }
             )
     versions = {"torch": torch.__version__}
@@ -142,12 +154,21 @@ def main() -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(out, indent=2) + "\n")
 
-    print("| update (1 thread, batch 256) | ours (ms) | SB3 (ms) | SB3 / ours |")
-    print("| --- | --- | --- | --- |")
+    print(
+        "| update (1 thread, batch 256) | ours, flex (ms) | ours, host (ms) | SB3 (ms) "
+        "| SB3 / flex | SB3 / host |"
+    )
+    print("| --- | --- | --- | --- | --- | --- |")
+
+    def cell(value, unit: str) -> str:
+        return f"{value:.{3 if unit == '' else 2}f}{unit}" if value else "-"
+
     for r in rows:
-        mine = f"{r['ours_ms']:.3f}" if r["ours_ms"] else "-"
-        ratio = f"{r['sb3_over_ours']:.2f}x" if r["sb3_over_ours"] else "-"
-        print(f"| {r['algo'].upper()} {r['hidden']} | {mine} | {r['sb3_ms']:.3f} | {ratio} |")
+        print(
+            f"| {r['algo'].upper()} {r['hidden']} | {cell(r['ours_ms'], '')} "
+            f"| {cell(r['ours_host_ms'], '')} | {r['sb3_ms']:.3f} "
+            f"| {cell(r['sb3_over_ours'], 'x')} | {cell(r['sb3_over_ours_host'], 'x')} |"
+        )
     print(f"figures in {path} ({', '.join(f'{k} {v}' for k, v in versions.items())})")
 
 

@@ -53,24 +53,35 @@ fn params_of<M: Module>(m: &M) -> Vec<Vec<u32>> {
 }
 
 #[test]
-fn sac_is_bit_identical_across_runs_and_thread_counts() {
-    let make = || Sac::agent(3, 1, sac_config(), 5, &device());
-    let a = run(make(), 200, 1);
-    let b = run(make(), 200, 1);
-    let c = run(make(), 200, 2);
-    let (pa, pc) = (
-        params_of(a.learner().actor()),
-        params_of(c.learner().actor()),
-    );
-    assert_eq!(pa, params_of(b.learner().actor()));
-    assert_eq!(pa, pc, "actor differs between 1 and 2 threads");
-    assert_eq!(
-        params_of(a.learner().critic()),
-        params_of(c.learner().critic())
-    );
-    assert_eq!(a.learner().alpha(), c.learner().alpha());
-    // And training did move the parameters.
-    assert_ne!(pa, params_of(make().learner().actor()));
+fn sac_is_bit_identical_across_runs_and_thread_counts_on_both_paths() {
+    for host_path in [false, true] {
+        let make = || {
+            let mut agent = Sac::agent(3, 1, sac_config(), 5, &device());
+            if host_path {
+                agent.learner_mut().on_host_path().unwrap();
+            }
+            agent
+        };
+        let a = run(make(), 200, 1);
+        let b = run(make(), 200, 1);
+        let c = run(make(), 200, 2);
+        let (pa, pc) = (
+            params_of(&a.learner().actor()),
+            params_of(&c.learner().actor()),
+        );
+        assert_eq!(pa, params_of(&b.learner().actor()), "host path {host_path}");
+        assert_eq!(
+            pa, pc,
+            "actor differs between 1 and 2 threads (host path {host_path})"
+        );
+        assert_eq!(
+            params_of(&a.learner().critic()),
+            params_of(&c.learner().critic())
+        );
+        assert_eq!(a.learner().alpha(), c.learner().alpha());
+        // And training did move the parameters.
+        assert_ne!(pa, params_of(&make().learner().actor()));
+    }
 }
 
 #[test]

@@ -88,6 +88,25 @@ fn each_algorithm_trains_evaluates_and_tests_reproducibly() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+#[test]
+fn sac_on_the_host_path_trains_and_tests_reproducibly() {
+    let dir = scratch("e2e-host");
+    let config = dir.join("sac-host.toml");
+    let text = common::tiny_config_text("sac", 2, 150);
+    std::fs::write(
+        &config,
+        text.replace("seed = 3\n", "seed = 3\nbackend = \"host\"\n"),
+    )
+    .unwrap();
+    let a = run(&config, &dir.join("a"), "1");
+    let b = run(&config, &dir.join("b"), "2");
+    assert_eq!(a, b, "host path: metrics differ between 1 and 2 threads");
+    let metrics: serde_json::Value = serde_json::from_str(&a).unwrap();
+    assert_eq!(metrics["episodes"], 3);
+    let saved = std::fs::read_to_string(dir.join("a/config.toml")).unwrap();
+    assert!(saved.contains("backend = \"host\""), "{saved}");
+}
+
 /// The length-delimited fields of a protobuf message as `(field number, bytes)`.
 fn proto_fields(mut data: &[u8]) -> Vec<(u64, &[u8])> {
     fn varint(data: &mut &[u8]) -> u64 {

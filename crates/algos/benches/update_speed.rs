@@ -6,7 +6,9 @@
 //! (`RAYON_NUM_THREADS` sets the thread count). The figures also go to
 //! `target/bench/update_speed.json` (`sac_update_ms_64x64`, ..., `sac_update_ms_7x3000`);
 //! `--backend wgpu` (built with `--features wgpu`) times the GPU path and writes
-//! `target/bench/update_speed_wgpu.json`.
+//! `target/bench/update_speed_wgpu.json`; `--backend flex,host` times the host MLP path
+//! (SAC) beside flex in one run (`target/bench/update_speed_flex,host.json`, the host
+//! figures' keys ending in `_host`).
 
 use burn::module::Module;
 use foosball_algos::agent::{ActMode, Agent, Experience};
@@ -127,18 +129,29 @@ fn bench_settings(net: &mut NetConfig, schedule: &mut OffPolicyConfig, hidden: &
     schedule.buffer_size = 10_000;
 }
 
-/// Times SAC, TD3 and PPO updates (and PPO's act) at `hidden`; returns the figures.
-fn bench_size(hidden: &[usize], algos: &str, reps: usize, device: &Device) -> Vec<(String, f64)> {
+/// Times SAC, TD3 and PPO updates (and PPO's act) at `hidden` on `backend`; returns the
+/// figures. The host path times SAC only (the others are not on it yet).
+fn bench_size(hidden: &[usize], algos: &str, reps: usize, backend: Backend) -> Vec<(String, f64)> {
+    let device = &backend.device().unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(0);
-    let label = format!("{}x{}", hidden[0], hidden.len());
-    let key = size_key(hidden);
+    let host = backend == Backend::Host;
+    let label = format!(
+        "{}x{}{}",
+        hidden[0],
+        hidden.len(),
+        if host { " host" } else { "" }
+    );
+    let key = format!("{}{}", size_key(hidden), if host { "_host" } else { "" });
     let mut out = Vec::new();
 
-    let wanted = |algo: &str| algos.split(',').any(|a| a == algo);
+    let wanted = |algo: &str| algos.split(',').any(|a| a == algo) && (!host || algo == "sac");
     if wanted("sac") {
         let mut sac = SacConfig::default();
         bench_settings(&mut sac.net, &mut sac.off_policy, hidden);
         let mut agent = Sac::agent(OBS, ACT, sac, 1, device);
+        if host {
+            agent.learner_mut().on_host_path().unwrap();
+        }
         let t = off_policy_update(&mut agent, reps, 1, &mut rng, device);
         println!("{label:>8}  SAC update  {:>9.2} ms", t * 1e3);
         out.push((format!("sac_update_ms_{key}"), t * 1e3));
@@ -233,11 +246,14 @@ fn main() {
     let sizes = args::flag("--sizes").unwrap_or_else(|| "64x2,256x2,3000x7".into());
     let algos = args::flag("--algos").unwrap_or_else(|| "sac,td3,ppo".into());
     let reps: usize = args::flag("--reps").map_or(3, |r| r.parse().expect("--reps N"));
-    let backend = args::flag("--backend")
-        .map_or_else(|| Backend::default_cpu().unwrap(), |b| b.parse().unwrap());
-    let device = backend.device().unwrap();
+    let default = Backend::default_cpu().unwrap().to_string();
+    let backend_list = args::flag("--backend").unwrap_or(default.clone());
+    let backends: Vec<Backend> = backend_list
+        .split(',')
+        .map(|b| b.parse().unwrap())
+        .collect();
     println!(
-        "backend {backend}, {} rayon threads, batch {BATCH}",
+        "backends {backend_list}, {} rayon threads, batch {BATCH}",
         rayon_threads()
     );
     let mut figures = Vec::new();
@@ -245,13 +261,17 @@ fn main() {
         let (width, depth) = size.split_once('x').expect("--sizes WIDTHxDEPTH,...");
         let hidden = vec![width.parse::<usize>().unwrap(); depth.parse().unwrap()];
         let reps = if hidden[0] >= 1000 { reps } else { reps * 20 };
-        breakdown(&hidden, reps, &device);
-        figures.extend(bench_size(&hidden, &algos, reps, &device));
+        for &backend in &backends {
+            if backend != Backend::Host {
+                breakdown(&hidden, reps, &backend.device().unwrap());
+            }
+            figures.extend(bench_size(&hidden, &algos, reps, backend));
+        }
     }
-    let bench = if Some(backend) == Backend::default_cpu().ok() {
+    let bench = if backend_list == default {
         "update_speed".to_string()
     } else {
-        format!("update_speed_{backend}")
+        format!("update_speed_{backend_list}")
     };
     let path = figures::write_figures(&bench, &figures);
     println!("figures in {}", path.display());

@@ -127,6 +127,11 @@ impl<L: OffPolicyLearner> OffPolicy<L> {
     pub fn learner(&self) -> &L {
         &self.learner
     }
+
+    /// The learner, to change (e.g. [`crate::Sac::on_host_path`]).
+    pub fn learner_mut(&mut self) -> &mut L {
+        &mut self.learner
+    }
 }
 
 impl<L: OffPolicyLearner> Agent for OffPolicy<L> {
@@ -297,18 +302,8 @@ impl<L: OffPolicyLearner> Agent for OffPolicy<L> {
     }
 }
 
-/// The one-step target `y = r + gamma * (1 - done) * next_value`, each `[batch]`.
-pub fn bellman_target(
-    rewards: foosball_nets::Tensor<1>,
-    dones: foosball_nets::Tensor<1>,
-    next_value: foosball_nets::Tensor<1>,
-    gamma: f32,
-) -> foosball_nets::Tensor<1> {
-    rewards + dones.neg().add_scalar(1.0).mul_scalar(gamma) * next_value
-}
-
 /// `MSE(q1, y) + MSE(q2, y)`, one element: the twin critics' regression onto the target
-/// `y` (SB3 sums the two; SAC halves the sum).
+/// `y` (SB3's TD3 loss; SAC halves the sum, `crate::sac`).
 pub fn twin_mse(
     q1: foosball_nets::Tensor<1>,
     q2: foosball_nets::Tensor<1>,

@@ -13,8 +13,9 @@
 
 use crate::agent::{ActMode, AgentError, Metrics};
 use crate::config::{ConfigError, DEFAULT_GAMMA, NetConfig, OffPolicyConfig, check_gamma, ensure};
-use crate::off_policy::{OffPolicy, OffPolicyLearner, bellman_target, twin_mse};
+use crate::off_policy::{OffPolicy, OffPolicyLearner, twin_mse};
 use crate::replay::ReplayBatch;
+use crate::rows::{DeviceRows, bellman};
 use crate::tensors::{host, matrix, mean, standard_normal, vector};
 use burn::module::Module;
 use foosball_nets::store::{load_module, save_module};
@@ -204,7 +205,8 @@ impl OffPolicyLearner for Td3 {
         let rewards = vector(&batch.rewards, &plain);
         let dones = vector(&batch.dones, &plain);
         let discount = c.off_policy.bootstrap_discount(c.gamma);
-        let target = bellman_target(rewards, dones, min_q_next, discount).autodiff();
+        let rows = DeviceRows { device: plain };
+        let target = bellman(&rows, &rewards, &dones, &min_q_next, discount).autodiff();
         let obs = matrix(&batch.obs, o, &dev);
         let (q1, q2) = self
             .critic

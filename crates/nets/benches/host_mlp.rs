@@ -128,7 +128,7 @@ impl HostSac {
             self.critic_grads[k].fill(0.0);
             self.critics[k].backward(tape, &self.dy, Some(&mut self.critic_grads[k]), None);
             let grads = &self.critic_grads[k];
-            self.critic_adams[k].step_flat(self.critics[k].params_mut(), grads, 3e-4);
+            self.critic_adams[k].step_flat(&mut [self.critics[k].params_mut()], grads, 3e-4);
         }
         // Actor: a~ on s, the first critic walked back to a~ (dL/dq = -1/n), then the actor.
         let [tape_a, tape_q1, _] = &mut self.tapes;
@@ -151,7 +151,7 @@ impl HostSac {
         self.actor
             .backward(tape_a, &self.d_actor, Some(&mut self.actor_grads), None);
         self.actor_adam
-            .step_flat(self.actor.params_mut(), &self.actor_grads, 3e-4);
+            .step_flat(&mut [self.actor.params_mut()], &self.actor_grads, 3e-4);
         for (target, online) in self.targets.iter_mut().zip(&self.critics) {
             lerp_into(target.params_mut(), online.params(), 0.005);
         }

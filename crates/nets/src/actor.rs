@@ -4,6 +4,8 @@ use crate::cnn::Encoder;
 use crate::distributions::{
     diag_gaussian_entropy, diag_gaussian_log_prob, squashed_gaussian_log_prob,
 };
+use crate::host_actor::HostSquashedGaussian;
+use crate::host_mlp::HostMlp;
 use crate::init::NetInit;
 use crate::mlp::Mlp;
 use burn::module::{Module, Param};
@@ -70,6 +72,19 @@ impl SquashedGaussianActor {
     /// The deterministic action `tanh(mean)`, `[batch, action_dim]`.
     pub fn deterministic(&self, obs: Tensor<2>) -> Tensor<2> {
         tanh(self.distribution(obs).0)
+    }
+
+    /// A copy on the host MLP path; an error for an image observation or layer
+    /// normalisation, which that path does not compute.
+    pub fn to_host(&self) -> Result<HostSquashedGaussian, String> {
+        self.encoder.per_value_inputs()?;
+        Ok(HostSquashedGaussian::new(HostMlp::from_mlp(&self.net)?))
+    }
+
+    /// This actor with `host`'s parameters (same widths).
+    pub fn with_host_params(mut self, host: &HostMlp) -> Result<Self, String> {
+        self.net = host.write_to(self.net)?;
+        Ok(self)
     }
 }
 

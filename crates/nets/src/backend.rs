@@ -20,13 +20,17 @@ pub enum Backend {
     Vulkan,
     /// CUDA GPUs (feature `cuda`).
     Cuda,
+    /// The host MLP path ([`crate::host_mlp`]): small networks in host memory with their
+    /// backward passes written out, on one thread; vector observations, SAC so far. Its
+    /// device is the default CPU backend's, where the networks are made, saved and read.
+    Host,
 }
 
 /// A backend that is unknown or not compiled into this binary.
 #[derive(Debug, thiserror::Error)]
 pub enum BackendError {
-    /// The name is not one of `flex`, `ndarray`, `wgpu`, `vulkan`, `cuda`.
-    #[error("unknown backend `{0}` (expected flex, ndarray, wgpu, vulkan or cuda)")]
+    /// The name is not one of `flex`, `ndarray`, `wgpu`, `vulkan`, `cuda`, `host`.
+    #[error("unknown backend `{0}` (expected flex, ndarray, wgpu, vulkan, cuda or host)")]
     Unknown(String),
     /// The backend exists but this binary was built without its cargo feature.
     #[error("backend `{0}` is not compiled in: rebuild with `--features {0}`")]
@@ -34,13 +38,14 @@ pub enum BackendError {
 }
 
 impl Backend {
-    /// All backends, in the order the default is chosen from.
-    pub const ALL: [Backend; 5] = [
+    /// All backends.
+    pub const ALL: [Backend; 6] = [
         Backend::Cuda,
         Backend::Vulkan,
         Backend::Wgpu,
         Backend::Flex,
         Backend::Ndarray,
+        Backend::Host,
     ];
 
     /// The backend's name, as in configs and on the command line.
@@ -51,6 +56,7 @@ impl Backend {
             Backend::Wgpu => "wgpu",
             Backend::Vulkan => "vulkan",
             Backend::Cuda => "cuda",
+            Backend::Host => "host",
         }
     }
 
@@ -62,6 +68,7 @@ impl Backend {
             Backend::Wgpu => cfg!(feature = "wgpu"),
             Backend::Vulkan => cfg!(feature = "vulkan"),
             Backend::Cuda => cfg!(feature = "cuda"),
+            Backend::Host => Backend::default_cpu().is_ok(),
         }
     }
 
@@ -88,6 +95,7 @@ impl Backend {
             Backend::Vulkan => Device::vulkan(Default::default()),
             #[cfg(feature = "cuda")]
             Backend::Cuda => Device::cuda(0),
+            Backend::Host => return Backend::default_cpu()?.device(),
             #[allow(unreachable_patterns)]
             other => return Err(BackendError::NotCompiled(other)),
         };

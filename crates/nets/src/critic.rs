@@ -2,6 +2,8 @@
 //! each behind an observation encoder (see [`crate::cnn`]).
 
 use crate::cnn::Encoder;
+use crate::host_critic::HostTwinQ;
+use crate::host_mlp::HostMlp;
 use crate::init::NetInit;
 use crate::mlp::Mlp;
 use burn::module::Module;
@@ -81,6 +83,23 @@ impl TwinQ {
     pub fn q1_frozen(&self, obs: Tensor<2>, actions: Tensor<2>) -> Tensor<1> {
         let features = self.encoder.clone().no_grad().forward(obs);
         self.q1.clone().no_grad().forward(features, actions)
+    }
+
+    /// A copy on the host MLP path; an error for an image observation or layer
+    /// normalisation, which that path does not compute.
+    pub fn to_host(&self) -> Result<HostTwinQ, String> {
+        self.encoder.per_value_inputs()?;
+        HostTwinQ::new(
+            HostMlp::from_mlp(&self.q1.net)?,
+            HostMlp::from_mlp(&self.q2.net)?,
+        )
+    }
+
+    /// These critics with `host`'s parameters (same widths).
+    pub fn with_host_params(mut self, host: &HostTwinQ) -> Result<Self, String> {
+        self.q1.net = host.q[0].write_to(self.q1.net)?;
+        self.q2.net = host.q[1].write_to(self.q2.net)?;
+        Ok(self)
     }
 
     /// `min(Q1, Q2)`, `[batch]`.

@@ -51,6 +51,11 @@ impl MlpTape {
     pub fn batch(&self) -> usize {
         self.batch
     }
+
+    /// The latest forward pass's output, `[batch, output]` (empty before one).
+    pub fn output(&self) -> &[f32] {
+        self.values.last().map_or(&[], Vec::as_slice)
+    }
 }
 
 /// Parameters of a dense layer of widths `[d_in, d_out]`: `W` and `b`.
@@ -487,7 +492,7 @@ mod tests {
             let g = burn_gradients(&mlp, &mut loss(&mlp));
             let mut grads = loss(&mlp);
             let module_report = module_adam.step_in_place(&mut mlp, &mut grads, 1e-2);
-            let flat_report = flat_adam.step_flat(host.params_mut(), &g, 1e-2);
+            let flat_report = flat_adam.step_flat(&mut [host.params_mut()], &g, 1e-2);
             assert_eq!(flat_report.applied.read(), 1.0);
             let norms = (module_report.grad_norm.read(), flat_report.grad_norm.read());
             assert!((norms.0 - norms.1).abs() <= 1e-6 * norms.0, "{norms:?}");
@@ -511,7 +516,7 @@ mod tests {
         let before = host.clone();
         let mut bad = vec![0.0; host.params().len()];
         bad[3] = f32::NAN;
-        let report = flat_adam.step_flat(host.params_mut(), &bad, 1e-2);
+        let report = flat_adam.step_flat(&mut [host.params_mut()], &bad, 1e-2);
         assert_eq!(report.applied.read(), 0.0);
         assert_eq!((host, flat_adam.steps()), (before, 4));
         std::fs::remove_dir_all(&dir).unwrap();

@@ -1,6 +1,7 @@
 //! Burn networks for foosball-rl: the MLP, the image encoder (NatureCNN) and the
 //! actor/critic heads of PPO, SAC and TD3, the MLP on host memory with its backward pass
-//! written out (the small-network path, [`host_mlp`]),
+//! written out (the small-network path, [`host_mlp`], with SAC's actor and the twin
+//! critics on it: [`host_actor`], [`host_critic`]),
 //! the action distributions, parameter-wise utilities (polyak averaging, flat and
 //! own-rank views), Adam with PyTorch's epsilon and global-norm gradient clipping
 //! (computed on the device on GPUs: no host reads in a step), counted host reads and
@@ -20,6 +21,8 @@ pub mod cnn;
 pub mod critic;
 pub mod distributions;
 pub mod host;
+pub mod host_actor;
+pub mod host_critic;
 pub mod host_mlp;
 pub mod init;
 pub mod mlp;
@@ -35,6 +38,8 @@ pub use burn;
 pub use burn::tensor::{Device, Tensor, TensorData};
 pub use cnn::{CnnConfig, ConvLayer, Encoder, ObsShape};
 pub use critic::{QNetwork, TwinQ, ValueCritic};
+pub use host_actor::HostSquashedGaussian;
+pub use host_critic::HostTwinQ;
 pub use host_mlp::{HostMlp, MlpTape};
 pub use init::NetInit;
 pub use mlp::{Activation, Mlp};

@@ -394,18 +394,20 @@ impl Adam {
         })
     }
 
-    /// One update of a network kept as one flat host buffer ([`crate::HostMlp`]): `params`
-    /// and their gradient `grads`, of one length, taken as a single parameter (its
-    /// moments and snapshot entries are those of a one-parameter module). The formulas,
-    /// the clipping and the skipping of a non-finite gradient are [`Adam::step`]'s.
-    pub fn step_flat(&mut self, params: &mut [f32], grads: &[f32], lr: f64) -> StepReport {
-        assert_eq!(params.len(), grads.len(), "a gradient per parameter");
+    /// One update of a network kept in flat host buffers ([`crate::HostMlp`]): `params`,
+    /// one or more pieces (the twin critics' two networks), and their gradient `grads`,
+    /// the pieces' concatenation, taken as a single parameter (its moments and snapshot
+    /// entries are those of a one-parameter module; the clipping norm is over all pieces).
+    /// The formulas, the clipping and the skipping of a non-finite gradient are
+    /// [`Adam::step`]'s.
+    pub fn step_flat(&mut self, params: &mut [&mut [f32]], grads: &[f32], lr: f64) -> StepReport {
+        let n: usize = params.iter().map(|p| p.len()).sum();
+        assert_eq!(n, grads.len(), "a gradient per parameter");
         self.check_module(1);
         let grad_norm = sum_squares(grads).sqrt() as f32;
         let Some(update) = self.host_update(grad_norm, lr) else {
             return host_report(grad_norm, false);
         };
-        let n = grads.len();
         let moments =
             self.moments[0].get_or_insert_with(|| Moments::Host(vec![0.0; n], vec![0.0; n]));
         if let Moments::Device(mv) = moments {
@@ -415,7 +417,13 @@ impl Adam {
         let Moments::Host(m, v) = moments else {
             unreachable!("moved to the host above")
         };
-        update.host(params, grads, m, v);
+        let mut start = 0;
+        for piece in params.iter_mut() {
+            let range = start..start + piece.len();
+            let (m, v) = (&mut m[range.clone()], &mut v[range.clone()]);
+            update.host(piece, &grads[range.clone()], m, v);
+            start = range.end;
+        }
         host_report(grad_norm, true)
     }
 

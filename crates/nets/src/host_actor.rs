@@ -1,0 +1,177 @@
+//! SAC's squashed Gaussian actor on the host MLP path ([`crate::host_mlp`]): the same
+//! network and distribution as [`crate::SquashedGaussianActor`], with the distribution's
+//! backward pass written out.
+//!
+//! Forward, per row (`A` actions): `z = mlp(obs) [2A]`, `mean = z[..A]`,
+//! `log_std = clamp(z[A..], LOG_STD_MIN, LOG_STD_MAX)`, `u = mean + exp(log_std) * noise`,
+//! `a = tanh(u)`,
+//! `log pi = sum_j (-0.5 ((u_j - mean_j) / std_j)^2 - log_std_j - 0.5 ln 2 pi - ln(1 - tanh(u_j)^2 + eps))`.
+//!
+//! Backward, given `da = dL/da [batch, A]`, `dlp = dL/dlog pi [batch]` and optionally
+//! `dd = dL/d tanh(mean)` on the first rows (behaviour cloning):
+//! `du = da (1 - a^2) + dlp * 2 t (1 - t^2) / (1 - t^2 + eps)` (`t = tanh(u)`, the
+//! squashing term taken on its own path, as the Burn actor keeps it),
+//! `dmean = du (+ dd (1 - tanh(mean)^2))`, `dlog_std = du * std * noise - dlp` (the
+//! Gaussian term's `(u - mean) / std` is `noise` whatever `mean` and `log_std`: only its
+//! `- log_std` has a gradient), through the clamp where it is not clamped.
+
+use crate::actor::{LOG_STD_MAX, LOG_STD_MIN};
+use crate::distributions::{HALF_LN_2PI, TANH_EPSILON};
+use crate::host_mlp::{HostMlp, MlpTape};
+
+/// The squashed Gaussian actor with its latest sample kept for the backward pass.
+#[derive(Clone, Debug)]
+pub struct HostSquashedGaussian {
+    /// `obs [batch, obs_dim] -> [batch, 2 * action_dim]` (mean, then log std).
+    pub mlp: HostMlp,
+    /// The latest [`HostSquashedGaussian::sample`]'s forward pass.
+    tape: MlpTape,
+    /// What the latest sample's backward pass needs.
+    kept: Kept,
+    /// The forward pass of samples and actions not walked back.
+    scratch: MlpTape,
+}
+
+/// Of a sample, `[batch, action_dim]` each: the noise, `exp(log_std)`, `tanh(u)` and
+/// whether each log std lay inside the clamp.
+#[derive(Clone, Debug, Default)]
+struct Kept {
+    noise: Vec<f32>,
+    std: Vec<f32>,
+    squashed: Vec<f32>,
+    unclamped: Vec<bool>,
+}
+
+/// Actions and log-densities `([batch, a], [batch])` of the network outputs `z
+/// [batch, 2a]` under `noise [batch, a]`, what the backward needs written to `kept`.
+fn squashed_sample(z: &[f32], noise: &[f32], a: usize, kept: &mut Kept) -> (Vec<f32>, Vec<f32>) {
+    let batch = z.len() / (2 * a);
+    assert_eq!(noise.len(), batch * a, "noise [batch, action_dim]");
+    let Kept {
+        std,
+        unclamped,
+        squashed,
+        noise: kept_noise,
+    } = kept;
+    std.clear();
+    unclamped.clear();
+    squashed.clear();
+    kept_noise.clear();
+    kept_noise.extend_from_slice(noise);
+    let mut log_prob = Vec::with_capacity(batch);
+    for (row, eps) in z.chunks_exact(2 * a).zip(noise.chunks_exact(a)) {
+        let (mean, raw) = row.split_at(a);
+        let mut lp = 0.0;
+        for j in 0..a {
+            let log_std = raw[j].clamp(LOG_STD_MIN, LOG_STD_MAX);
+            let s = log_std.exp();
+            let u = mean[j] + s * eps[j];
+            let t = u.tanh();
+            let gauss = (u - mean[j]) / s;
+            lp += (-0.5 * gauss * gauss - log_std) - HALF_LN_2PI;
+            lp -= (1.0 + TANH_EPSILON - t * t).ln();
+            std.push(s);
+            unclamped.push((LOG_STD_MIN..=LOG_STD_MAX).contains(&raw[j]));
+            squashed.push(t);
+        }
+        log_prob.push(lp);
+    }
+    (squashed.clone(), log_prob)
+}
+
+/// `tanh(mean)` of the first `rows` rows of network outputs `z [batch, 2a]`.
+fn squashed_means(z: &[f32], a: usize, rows: usize) -> Vec<f32> {
+    z.chunks_exact(2 * a)
+        .take(rows)
+        .flat_map(|row| row[..a].iter().map(|m| m.tanh()))
+        .collect()
+}
+
+impl HostSquashedGaussian {
+    /// The actor computing with `mlp`.
+    pub fn new(mlp: HostMlp) -> Self {
+        Self {
+            mlp,
+            tape: MlpTape::default(),
+            kept: Kept::default(),
+            scratch: MlpTape::default(),
+        }
+    }
+
+    /// Actions per row.
+    pub fn action_dim(&self) -> usize {
+        self.mlp.output_dim() / 2
+    }
+
+    /// Reparameterised actions `tanh(mean + std * noise)` `[batch, action_dim]` and their
+    /// log-densities `[batch]` for `obs [batch, obs_dim]` and `noise [batch, action_dim]`
+    /// (standard normal), kept for [`HostSquashedGaussian::backward`].
+    pub fn sample(&mut self, obs: &[f32], noise: &[f32]) -> (Vec<f32>, Vec<f32>) {
+        let a = self.action_dim();
+        let z = self.mlp.forward(obs, &mut self.tape);
+        squashed_sample(z, noise, a, &mut self.kept)
+    }
+
+    /// As [`HostSquashedGaussian::sample`], not kept: the latest sample stays the one
+    /// [`HostSquashedGaussian::backward`] walks back (target values, exploration).
+    pub fn sample_detached(&mut self, obs: &[f32], noise: &[f32]) -> (Vec<f32>, Vec<f32>) {
+        let a = self.action_dim();
+        let z = self.mlp.forward(obs, &mut self.scratch);
+        squashed_sample(z, noise, a, &mut Kept::default())
+    }
+
+    /// `tanh(mean)` of the latest sample's first `rows` rows, `[rows, action_dim]`.
+    pub fn sampled_means(&self, rows: usize) -> Vec<f32> {
+        squashed_means(self.tape.output(), self.action_dim(), rows)
+    }
+
+    /// The deterministic actions `tanh(mean)` `[batch, action_dim]` (not kept).
+    pub fn deterministic(&mut self, obs: &[f32]) -> Vec<f32> {
+        let a = self.action_dim();
+        let z = self.mlp.forward(obs, &mut self.scratch);
+        squashed_means(z, a, usize::MAX)
+    }
+
+    /// Adds `dL/dparams` of the latest sample to `grads` (the MLP's layout), given
+    /// `d_actions [batch, action_dim]`, `d_log_prob [batch]` and, for the first rows,
+    /// `d_means`: the gradient with respect to `tanh(mean)` `[rows, action_dim]`.
+    pub fn backward(
+        &mut self,
+        d_actions: &[f32],
+        d_log_prob: &[f32],
+        d_means: Option<&[f32]>,
+        grads: &mut [f32],
+    ) {
+        let a = self.action_dim();
+        let batch = self.tape.batch();
+        assert_eq!(d_actions.len(), batch * a, "d_actions [batch, action_dim]");
+        assert_eq!(d_log_prob.len(), batch, "d_log_prob [batch]");
+        let z = self.tape.output();
+        let Kept {
+            noise,
+            std,
+            squashed,
+            unclamped,
+        } = &self.kept;
+        let mut dz = vec![0.0; batch * 2 * a];
+        for i in 0..batch {
+            let dlp = d_log_prob[i];
+            for j in 0..a {
+                let k = i * a + j;
+                let t = squashed[k];
+                let one_minus = 1.0 - t * t;
+                let du = d_actions[k] * one_minus
+                    + dlp * 2.0 * t * one_minus / (one_minus + TANH_EPSILON);
+                let mut d_mean = du;
+                if let Some(dd) = d_means.filter(|dd| k < dd.len()) {
+                    let m = z[i * 2 * a + j].tanh();
+                    d_mean += dd[k] * (1.0 - m * m);
+                }
+                let d_log_std = du * std[k] * noise[k] - dlp;
+                dz[i * 2 * a + j] = d_mean;
+                dz[i * 2 * a + a + j] = if unclamped[k] { d_log_std } else { 0.0 };
+            }
+        }
+        self.mlp.backward(&mut self.tape, &dz, Some(grads), None);
+    }
+}
