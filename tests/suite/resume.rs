@@ -6,6 +6,7 @@ use crate::common;
 
 use common::{scratch, tiny_config_text};
 use foosball_rl::config::RunConfig;
+use foosball_rl::nets::Backend;
 use foosball_rl::nets::Snapshot;
 use foosball_rl::run::train::{Event, Start, train};
 use std::path::Path;
@@ -79,11 +80,13 @@ fn assert_same_run(a: &Path, b: &Path, label: &str) {
 /// Trains `algo` (its config text followed by `extra`) straight through, and again
 /// stopped at its evaluation at env step 200 (in epoch 2 of 3, after the epoch-1
 /// checkpoint, with epoch-2 logs and best networks already written) and resumed; the two
-/// must end the same.
-fn stopped_mid_epoch_and_resumed(algo: &str, extra: &str) {
-    let dir = scratch(&format!("resume-{algo}{}", extra.len()));
+/// must end the same. `extra` is appended to the config text; `backend` set when given.
+fn stopped_mid_epoch_and_resumed(algo: &str, extra: &str, backend: Option<Backend>) {
+    let name = backend.map_or(String::new(), |b| b.to_string());
+    let dir = scratch(&format!("resume-{algo}{}{name}", extra.len()));
     let text = tiny_config_text(algo, 3, 150) + extra;
-    let c = RunConfig::from_toml(&text, Path::new("tiny.toml")).unwrap();
+    let mut c = RunConfig::from_toml(&text, Path::new("tiny.toml")).unwrap();
+    c.protocol.backend = backend;
     let straight = dir.join("straight");
     let broken = dir.join("broken");
     for run in [&straight, &broken] {
@@ -112,31 +115,40 @@ fn stopped_mid_epoch_and_resumed(algo: &str, extra: &str) {
 
 #[test]
 fn a_ppo_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_one() {
-    stopped_mid_epoch_and_resumed("ppo", "");
+    stopped_mid_epoch_and_resumed("ppo", "", None);
 }
 
 #[test]
 fn a_sac_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_one() {
-    stopped_mid_epoch_and_resumed("sac", "");
+    stopped_mid_epoch_and_resumed("sac", "", None);
+}
+
+#[test]
+fn a_sac_run_on_the_host_path_stopped_and_resumed_ends_as_the_uninterrupted_one() {
+    stopped_mid_epoch_and_resumed("sac", "", Some(Backend::Host));
 }
 
 /// The replay buffer's image planes (stored once each, shared between rows) are saved
 /// and restored with the rest of the training state.
 #[test]
 fn a_sac_run_on_pixels_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_one() {
-    stopped_mid_epoch_and_resumed("sac", &on_pixels("sac"));
+    stopped_mid_epoch_and_resumed("sac", &on_pixels("sac"), None);
 }
 
 #[test]
 fn a_td3_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_one() {
-    stopped_mid_epoch_and_resumed("td3", "");
+    stopped_mid_epoch_and_resumed("td3", "", None);
 }
 
 /// Self-play: the pool (snapshots at steps 0, 60, ..., records) is part of the checkpoint;
 /// the environments' opponents are drawn again as the uninterrupted run drew them.
 #[test]
 fn a_self_play_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_one() {
-    stopped_mid_epoch_and_resumed("sac", "[self_play]\nsnapshot_every = 60\npool_size = 3\n");
+    stopped_mid_epoch_and_resumed(
+        "sac",
+        "[self_play]\nsnapshot_every = 60\npool_size = 3\n",
+        None,
+    );
 }
 
 #[test]

@@ -2,7 +2,8 @@
 
 use crate::cnn::Encoder;
 use crate::distributions::{
-    diag_gaussian_entropy, diag_gaussian_log_prob, squashed_gaussian_log_prob,
+    LOG_STD_MAX, LOG_STD_MIN, diag_gaussian_entropy, diag_gaussian_log_prob,
+    squashed_gaussian_log_prob,
 };
 use crate::host_actor::HostSquashedGaussian;
 use crate::host_mlp::HostMlp;
@@ -12,11 +13,6 @@ use burn::module::{Module, Param};
 use burn::tensor::Tensor;
 use burn::tensor::activation::tanh;
 use rand::Rng;
-
-/// Lower clamp of SAC's log standard deviation (SB3's `LOG_STD_MIN`).
-pub const LOG_STD_MIN: f32 = -20.0;
-/// Upper clamp of SAC's log standard deviation (SB3's `LOG_STD_MAX`).
-pub const LOG_STD_MAX: f32 = 2.0;
 
 /// SAC's actor: an MLP (behind its own encoder, see [`crate::cnn`]) whose output layer
 /// holds the mean and the log standard deviation of `u` (equivalent to SB3's two linear

@@ -6,6 +6,11 @@
 use burn::tensor::Tensor;
 use burn::tensor::activation::tanh;
 
+/// Lower clamp of SAC's log standard deviation (SB3's `LOG_STD_MIN`).
+pub const LOG_STD_MIN: f32 = -20.0;
+/// Upper clamp of SAC's log standard deviation (SB3's `LOG_STD_MAX`).
+pub const LOG_STD_MAX: f32 = 2.0;
+
 /// `0.5 * ln(2 pi)`.
 pub const HALF_LN_2PI: f32 = 0.918_938_5;
 

@@ -15,8 +15,7 @@
 //! Gaussian term's `(u - mean) / std` is `noise` whatever `mean` and `log_std`: only its
 //! `- log_std` has a gradient), through the clamp where it is not clamped.
 
-use crate::actor::{LOG_STD_MAX, LOG_STD_MIN};
-use crate::distributions::{HALF_LN_2PI, TANH_EPSILON};
+use crate::distributions::{HALF_LN_2PI, LOG_STD_MAX, LOG_STD_MIN, TANH_EPSILON};
 use crate::host_mlp::{HostMlp, MlpTape};
 
 /// The squashed Gaussian actor with its latest sample kept for the backward pass.
