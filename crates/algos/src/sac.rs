@@ -13,6 +13,13 @@
 //!    `L / mean|min(Q1, Q2)| + bc_weight * mean((tanh(mu(s_d)) - a_d)^2)` over the
 //!    minibatch's demonstrated rows `(s_d, a_d)`, the scale a constant of the step;
 //! 5. targets: `theta' <- tau theta + (1 - tau) theta'` every `target_update_interval` steps.
+//!
+//! The step below computes each loss's gradient with respect to the networks' outputs
+//! (`dL/dQk = (Qk - y) / n` in 3; in 4 `dL/d log pi = s alpha / n` and `dL/d min Q = -s / n`
+//! with `s` the cloning scale or 1, `min` routed to the smaller critic; the temperature's
+//! `dL/d log alpha = -(mean log pi + H_target)`) and lets the networks walk it back: Burn's
+//! autodiff, or the host MLP path's hand-written backward passes (`backend = "host"`,
+//! [`crate::sac_networks`]); one step, either path.
 
 use crate::agent::{ActMode, AgentError, Metrics};
 use crate::config::{ConfigError, DEFAULT_GAMMA, NetConfig, OffPolicyConfig, check_gamma, ensure};
