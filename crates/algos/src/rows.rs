@@ -254,19 +254,16 @@ mod tests {
         let d = DeviceRows { device };
         let h = HostRows;
         let (a, b, one) = ([0.5, -1.5, 2.0, 0.0], [1.0, -2.0, 2.0, 3.0], [0.25]);
-        let check = |host: Vec<f32>, device: Tensor<1>| {
-            let device = host_of(device);
-            assert_eq!(host.len(), device.len());
-            for (x, y) in host.iter().zip(&device) {
+        let check = |on_host: Vec<f32>, on_device: Tensor<1>| {
+            let on_device = host(on_device);
+            assert_eq!(on_host.len(), on_device.len());
+            for (x, y) in on_host.iter().zip(&on_device) {
                 assert!(
                     (x - y).abs() <= 1e-6 * x.abs().max(1.0),
-                    "{host:?} {device:?}"
+                    "{on_host:?} {on_device:?}"
                 );
             }
         };
-        fn host_of(t: Tensor<1>) -> Vec<f32> {
-            host(t)
-        }
         let (ha, hb, h1) = (h.vector(&a), h.vector(&b), h.vector(&one));
         let (da, db, d1) = (d.vector(&a), d.vector(&b), d.vector(&one));
         check(h.add(&ha, &hb), d.add(&da, &db));

@@ -31,9 +31,7 @@ use crate::sac_networks::{
 };
 use crate::tensors::{host, matrix, standard_normal};
 use burn::module::Module;
-use foosball_nets::{
-    Adam, Device, ObsShape, Snapshot, SnapshotError, SquashedGaussianActor, TwinQ,
-};
+use foosball_nets::{Device, ObsShape, Snapshot, SnapshotError, SquashedGaussianActor, TwinQ};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::path::Path;
@@ -173,12 +171,7 @@ impl Sac {
             actor,
             critic,
         };
-        let adam = || Adam::new(n.adam.clone());
-        let optim = Optimisers {
-            actor: adam(),
-            critic: adam(),
-            temperature: adam(),
-        };
+        let optim = Optimisers::new(&n.adam);
         let learner = Sac {
             obs_dim,
             action_dim,
@@ -198,7 +191,8 @@ impl Sac {
     /// start fresh.
     pub fn on_host_path(&mut self) -> Result<(), String> {
         if let Networks::Burn(burn) = &self.networks {
-            let host = HostNetworks::from_modules(burn.modules.clone(), &burn.optim)?;
+            let optim = Optimisers::new(&self.config.net.adam);
+            let host = HostNetworks::from_modules(burn.modules.clone(), optim)?;
             self.networks = Networks::Host(Box::new(host));
         }
         Ok(())
@@ -448,6 +442,7 @@ impl OffPolicyLearner for Sac {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use foosball_nets::Adam;
     use foosball_nets::Backend;
 
     fn device() -> Device {

@@ -16,7 +16,7 @@ use burn::module::{Module, Param};
 use foosball_nets::host::{is_host, lerp_into};
 use foosball_nets::store::{load_module, save_module};
 use foosball_nets::{
-    Adam, Device, HostSquashedGaussian, HostTwinQ, Scalar, Snapshot, SnapshotError,
+    Adam, AdamConfig, Device, HostSquashedGaussian, HostTwinQ, Scalar, Snapshot, SnapshotError,
     SquashedGaussianActor, StepReport, Tensor, TwinQ, polyak_update,
 };
 use std::path::Path;
@@ -192,6 +192,15 @@ pub struct Optimisers {
 }
 
 impl Optimisers {
+    /// Three fresh optimisers with `adam`'s settings.
+    pub fn new(adam: &AdamConfig) -> Self {
+        Self {
+            actor: Adam::new(adam.clone()),
+            critic: Adam::new(adam.clone()),
+            temperature: Adam::new(adam.clone()),
+        }
+    }
+
     /// Writes the three states under `sac.*_adam`.
     pub fn save_state<'a>(&'a self, snap: &mut Snapshot<'a>) {
         self.actor.save_state(snap, "sac.actor_adam");
@@ -404,10 +413,10 @@ pub struct HostNetworks {
 }
 
 impl HostNetworks {
-    /// Copies of `modules` on the host path with fresh optimisers like `optim`'s; an
-    /// error says which network the path cannot compute (an image observation, layer
-    /// normalisation).
-    pub fn from_modules(modules: Modules, optim: &Optimisers) -> Result<Self, String> {
+    /// Copies of `modules` on the host path, stepped by `optim` (whose states are those of
+    /// flat buffers: fresh ones, or a host run's); an error says which network the path
+    /// cannot compute (an image observation, layer normalisation).
+    pub fn from_modules(modules: Modules, optim: Optimisers) -> Result<Self, String> {
         let actor = modules.actor.to_host()?;
         let critic = modules.critic.to_host()?;
         Ok(Self {
@@ -417,11 +426,7 @@ impl HostNetworks {
             },
             critic_target: modules.critic_target.to_host()?,
             log_alpha: vec![modules.temperature.log_alpha_value()],
-            optim: Optimisers {
-                actor: Adam::new(optim.actor.config().clone()),
-                critic: Adam::new(optim.critic.config().clone()),
-                temperature: Adam::new(optim.temperature.config().clone()),
-            },
+            optim,
             actor_grads: vec![0.0; actor.mlp.params().len()],
             critic_grads: vec![0.0; critic.param_count()],
             actor,
@@ -465,9 +470,7 @@ impl HostNetworks {
 
     /// The networks replaced by `modules`' (the optimisers kept).
     pub fn set_modules(&mut self, modules: Modules) -> Result<(), String> {
-        let optim = self.optim.clone();
-        *self = Self::from_modules(modules, &optim)?;
-        self.optim = optim;
+        *self = Self::from_modules(modules, self.optim.clone())?;
         Ok(())
     }
 }

@@ -27,8 +27,9 @@ pub struct HostSquashedGaussian {
     tape: MlpTape,
     /// What the latest sample's backward pass needs.
     kept: Kept,
-    /// The forward pass of samples and actions not walked back.
+    /// The forward pass and sample of what is not walked back.
     scratch: MlpTape,
+    scratch_kept: Kept,
 }
 
 /// Of a sample, `[batch, action_dim]` each: the noise, `exp(log_std)`, `tanh(u)` and
@@ -94,6 +95,7 @@ impl HostSquashedGaussian {
             tape: MlpTape::default(),
             kept: Kept::default(),
             scratch: MlpTape::default(),
+            scratch_kept: Kept::default(),
         }
     }
 
@@ -116,7 +118,7 @@ impl HostSquashedGaussian {
     pub fn sample_detached(&mut self, obs: &[f32], noise: &[f32]) -> (Vec<f32>, Vec<f32>) {
         let a = self.action_dim();
         let z = self.mlp.forward(obs, &mut self.scratch);
-        squashed_sample(z, noise, a, &mut Kept::default())
+        squashed_sample(z, noise, a, &mut self.scratch_kept)
     }
 
     /// `tanh(mean)` of the latest sample's first `rows` rows, `[rows, action_dim]`.

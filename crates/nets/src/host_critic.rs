@@ -10,9 +10,10 @@ use crate::host_mlp::{HostMlp, MlpTape};
 pub struct HostTwinQ {
     /// `[obs, action] [batch, obs_dim + action_dim] -> [batch, 1]`, each.
     pub q: [HostMlp; 2],
+    /// Each network's latest [`HostTwinQ::forward`] (its input, `[obs, action]`, included).
     tapes: [MlpTape; 2],
-    /// The latest input, `[batch, obs_dim + action_dim]`.
-    joined: Vec<f32>,
+    /// The passes of [`HostTwinQ::min`], not walked back.
+    scratch: MlpTape,
 }
 
 impl HostTwinQ {
@@ -29,7 +30,7 @@ impl HostTwinQ {
         Ok(Self {
             q: [q1, q2],
             tapes: Default::default(),
-            joined: Vec::new(),
+            scratch: MlpTape::default(),
         })
     }
 
@@ -55,28 +56,18 @@ impl HostTwinQ {
     /// `(Q1, Q2)`, `[batch]` each, for `obs [batch, obs_dim]` and `actions [batch,
     /// action_dim]`, kept for the backward passes.
     pub fn forward(&mut self, obs: &[f32], actions: &[f32]) -> (Vec<f32>, Vec<f32>) {
-        let width = self.q[0].input_dim();
-        let batch = self.join(obs, actions);
-        debug_assert_eq!(self.joined.len(), batch * width);
-        let q1 = self.q[0].forward(&self.joined, &mut self.tapes[0]).to_vec();
-        let q2 = self.q[1].forward(&self.joined, &mut self.tapes[1]).to_vec();
+        let joined = joined(obs, actions, self.q[0].input_dim());
+        let q1 = self.q[0].forward(&joined, &mut self.tapes[0]).to_vec();
+        let q2 = self.q[1].forward(&joined, &mut self.tapes[1]).to_vec();
         (q1, q2)
     }
 
     /// `min(Q1, Q2)`, `[batch]` (nothing kept for a backward pass).
-    pub fn min(&self, obs: &[f32], actions: &[f32]) -> Vec<f32> {
-        let mut scratch = MlpTape::default();
+    pub fn min(&mut self, obs: &[f32], actions: &[f32]) -> Vec<f32> {
         let joined = joined(obs, actions, self.q[0].input_dim());
-        let q1 = self.q[0].forward(&joined, &mut scratch).to_vec();
-        let q2 = self.q[1].forward(&joined, &mut scratch);
+        let q1 = self.q[0].forward(&joined, &mut self.scratch).to_vec();
+        let q2 = self.q[1].forward(&joined, &mut self.scratch);
         q1.iter().zip(q2).map(|(a, b)| a.min(*b)).collect()
-    }
-
-    /// `[obs, actions]` row by row into the kept input; the batch.
-    fn join(&mut self, obs: &[f32], actions: &[f32]) -> usize {
-        let width = self.q[0].input_dim();
-        self.joined = joined(obs, actions, width);
-        self.joined.len() / width
     }
 
     /// Adds `dL/dparams` of the latest forward pass to `grads` (`q1`'s layout then
