@@ -8,25 +8,32 @@ use foosball_env::{ObservationConfig, ObservationKind};
 use foosball_nets::{Backend, BackendError, Device, ObsShape};
 use std::path::Path;
 
+/// Why a validated config's networks compute on the host path.
+const VALIDATED: &str = "RunConfig::validate admits only what the host path computes";
+
 /// The agent `config` asks for, its networks drawn from the learner stream; its input is
 /// the observation `config.env` gives (38 state values, or an image through a CNN). With
 /// `backend = "host"` the same networks compute on the host MLP path (a validated config).
 pub fn build_agent(config: &RunConfig, device: &Device) -> Box<dyn Agent + Send> {
     let seed = derive_seed(config.protocol.seed, LEARNER, 0);
     let (o, a) = (obs_shape(&config.env.observation), layout::ACTION_DIM);
+    let on_host = config.protocol.backend == Some(Backend::Host);
     match &config.algorithm {
         AlgoConfig::Ppo(c) => Box::new(Ppo::new(o, a, c.clone(), seed, device)),
         AlgoConfig::Sac(c) => {
             let mut agent = Sac::agent(o, a, c.clone(), seed, device);
-            if config.protocol.backend == Some(Backend::Host) {
-                agent
-                    .learner_mut()
-                    .on_host_path()
-                    .expect("RunConfig::validate admits only what the host path computes");
+            if on_host {
+                agent.learner_mut().on_host_path().expect(VALIDATED);
             }
             Box::new(agent)
         }
-        AlgoConfig::Td3(c) => Box::new(Td3::agent(o, a, c.clone(), seed, device)),
+        AlgoConfig::Td3(c) => {
+            let mut agent = Td3::agent(o, a, c.clone(), seed, device);
+            if on_host {
+                agent.learner_mut().on_host_path().expect(VALIDATED);
+            }
+            Box::new(agent)
+        }
     }
 }
 

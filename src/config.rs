@@ -711,15 +711,18 @@ impl RunConfig {
         Ok(())
     }
 
-    /// What `backend = "host"` computes: SAC's MLPs on vector observations, without
-    /// layer normalisation.
+    /// What `backend = "host"` computes: SAC's and TD3's MLPs on vector observations,
+    /// without layer normalisation.
     fn check_host_path(&self) -> Result<(), ConfigError> {
-        let why = if self.algo() != Algo::Sac {
-            "runs SAC only so far: use flex for PPO and TD3"
+        let why = if self.algo() == Algo::Ppo {
+            "runs SAC and TD3 only so far: use flex for PPO".to_string()
         } else if self.env.observation.kind == ObservationKind::Image {
-            "computes vector observations only: use flex or a GPU backend for images"
+            "computes vector observations only: use flex or a GPU backend for images".to_string()
         } else if self.algorithm.net().critic_layer_norm {
-            "does not compute layer normalisation: set sac.net.critic_layer_norm = false or use flex"
+            format!(
+                "does not compute layer normalisation: set {}.net.critic_layer_norm = false or use flex",
+                self.algo()
+            )
         } else {
             return Ok(());
         };

@@ -85,21 +85,29 @@ fn sac_is_bit_identical_across_runs_and_thread_counts_on_both_paths() {
 }
 
 #[test]
-fn td3_is_bit_identical_across_thread_counts() {
+fn td3_is_bit_identical_across_thread_counts_on_both_paths() {
     let mut config = Td3Config::default();
     config.net.hidden = vec![256, 256];
     config.off_policy.learning_starts = 64;
-    let make = || Td3::agent(3, 1, config.clone(), 5, &device());
-    let a = run(make(), 200, 1);
-    let c = run(make(), 200, 2);
-    assert_eq!(
-        params_of(a.learner().actor()),
-        params_of(c.learner().actor())
-    );
-    assert_eq!(
-        params_of(a.learner().critic()),
-        params_of(c.learner().critic())
-    );
+    for host_path in [false, true] {
+        let make = || {
+            let mut agent = Td3::agent(3, 1, config.clone(), 5, &device());
+            if host_path {
+                agent.learner_mut().on_host_path().unwrap();
+            }
+            agent
+        };
+        let a = run(make(), 200, 1);
+        let c = run(make(), 200, 2);
+        let pa = params_of(&a.learner().actor());
+        assert_eq!(pa, params_of(&c.learner().actor()), "host path {host_path}");
+        assert_eq!(
+            params_of(&a.learner().critic()),
+            params_of(&c.learner().critic()),
+            "host path {host_path}"
+        );
+        assert_ne!(pa, params_of(&make().learner().actor()));
+    }
 }
 
 #[test]

@@ -139,15 +139,22 @@ fn malformed_files_and_wrong_sections_are_refused() {
             && e.contains("`greedy`, expected `deterministic` or `stochastic`"),
         "{e}"
     );
-    let e = error("algo = \"td3\"\n[protocol]\nbackend = \"host\"\n");
+    let e = error("algo = \"ppo\"\n[protocol]\nbackend = \"host\"\n");
     assert!(
-        e.starts_with("bad.toml:") && e.contains("protocol.backend: `host` runs SAC only"),
+        e.starts_with("bad.toml:") && e.contains("protocol.backend: `host` runs SAC and TD3 only"),
         "{e}"
     );
-    let e = error(
-        "algo = \"sac\"\n[protocol]\nbackend = \"host\"\n[sac.net]\ncritic_layer_norm = true\n",
-    );
-    assert!(e.contains("does not compute layer normalisation"), "{e}");
+    for algo in ["sac", "td3"] {
+        let e = error(&format!(
+            "algo = \"{algo}\"\n[protocol]\nbackend = \"host\"\n[{algo}.net]\ncritic_layer_norm = true\n",
+        ));
+        assert!(
+            e.contains(&format!(
+                "does not compute layer normalisation: set {algo}.net"
+            )),
+            "{e}"
+        );
+    }
     let e = error("algo = \"sac\"\n[ppo]\nn_steps = 8\n");
     assert!(e.contains("ppo: section for another algorithm"), "{e}");
     let missing = RunConfig::load(Path::new("no/such.toml")).unwrap_err();

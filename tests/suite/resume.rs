@@ -140,6 +140,11 @@ fn a_td3_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_one() {
     stopped_mid_epoch_and_resumed("td3", "", None);
 }
 
+#[test]
+fn a_td3_run_on_the_host_path_stopped_and_resumed_ends_as_the_uninterrupted_one() {
+    stopped_mid_epoch_and_resumed("td3", "", Some(Backend::Host));
+}
+
 /// Self-play: the pool (snapshots at steps 0, 60, ..., records) is part of the checkpoint;
 /// the environments' opponents are drawn again as the uninterrupted run drew them.
 #[test]

@@ -89,22 +89,27 @@ fn each_algorithm_trains_evaluates_and_tests_reproducibly() {
 }
 
 #[test]
-fn sac_on_the_host_path_trains_and_tests_reproducibly() {
-    let dir = scratch("e2e-host");
-    let config = dir.join("sac-host.toml");
-    let text = common::tiny_config_text("sac", 2, 150);
-    std::fs::write(
-        &config,
-        text.replace("seed = 3\n", "seed = 3\nbackend = \"host\"\n"),
-    )
-    .unwrap();
-    let a = run(&config, &dir.join("a"), "1");
-    let b = run(&config, &dir.join("b"), "2");
-    assert_eq!(a, b, "host path: metrics differ between 1 and 2 threads");
-    let metrics: serde_json::Value = serde_json::from_str(&a).unwrap();
-    assert_eq!(metrics["episodes"], 3);
-    let saved = std::fs::read_to_string(dir.join("a/config.toml")).unwrap();
-    assert!(saved.contains("backend = \"host\""), "{saved}");
+fn sac_and_td3_on_the_host_path_train_and_test_reproducibly() {
+    for algo in ["sac", "td3"] {
+        let dir = scratch(&format!("e2e-host-{algo}"));
+        let config = dir.join("host.toml");
+        let text = common::tiny_config_text(algo, 2, 150);
+        std::fs::write(
+            &config,
+            text.replace("seed = 3\n", "seed = 3\nbackend = \"host\"\n"),
+        )
+        .unwrap();
+        let a = run(&config, &dir.join("a"), "1");
+        let b = run(&config, &dir.join("b"), "2");
+        assert_eq!(
+            a, b,
+            "{algo} on the host path: metrics differ between 1 and 2 threads"
+        );
+        let metrics: serde_json::Value = serde_json::from_str(&a).unwrap();
+        assert_eq!(metrics["episodes"], 3);
+        let saved = std::fs::read_to_string(dir.join("a/config.toml")).unwrap();
+        assert!(saved.contains("backend = \"host\""), "{saved}");
+    }
 }
 
 /// The length-delimited fields of a protobuf message as `(field number, bytes)`.

@@ -130,7 +130,7 @@ fn bench_settings(net: &mut NetConfig, schedule: &mut OffPolicyConfig, hidden: &
 }
 
 /// Times SAC, TD3 and PPO updates (and PPO's act) at `hidden` on `backend`; returns the
-/// figures. The host path times SAC only (the others are not on it yet).
+/// figures. The host path times SAC and TD3 (PPO is not on it yet).
 fn bench_size(hidden: &[usize], algos: &str, reps: usize, backend: Backend) -> Vec<(String, f64)> {
     let device = &backend.device().unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(0);
@@ -144,7 +144,7 @@ fn bench_size(hidden: &[usize], algos: &str, reps: usize, backend: Backend) -> V
     let key = format!("{}{}", size_key(hidden), if host { "_host" } else { "" });
     let mut out = Vec::new();
 
-    let wanted = |algo: &str| algos.split(',').any(|a| a == algo) && (!host || algo == "sac");
+    let wanted = |algo: &str| algos.split(',').any(|a| a == algo) && (!host || algo != "ppo");
     if wanted("sac") {
         let mut sac = SacConfig::default();
         bench_settings(&mut sac.net, &mut sac.off_policy, hidden);
@@ -160,6 +160,9 @@ fn bench_size(hidden: &[usize], algos: &str, reps: usize, backend: Backend) -> V
         let mut td3 = Td3Config::default();
         bench_settings(&mut td3.net, &mut td3.off_policy, hidden);
         let mut agent = Td3::agent(OBS, ACT, td3, 1, device);
+        if host {
+            agent.learner_mut().on_host_path().unwrap();
+        }
         let t = off_policy_update(&mut agent, reps, 2, &mut rng, device);
         println!(
             "{label:>8}  TD3 update  {:>9.2} ms (mean over a critic-only and a delayed step)",

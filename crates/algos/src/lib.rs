@@ -10,7 +10,9 @@
 
 pub mod agent;
 pub mod config;
+pub mod critics;
 pub mod demonstrations;
+pub mod network_path;
 pub mod off_policy;
 pub mod plane_store;
 pub mod ppo;
@@ -22,7 +24,10 @@ pub mod sac;
 pub mod sac_networks;
 pub mod schedule;
 pub mod td3;
+pub mod td3_networks;
 pub mod tensors;
+#[cfg(test)]
+mod test_support;
 
 pub use agent::{ActMode, Agent, AgentError, Experience, Metrics};
 pub use config::{ConfigError, NetConfig, OffPolicyConfig};

@@ -302,16 +302,6 @@ impl<L: OffPolicyLearner> Agent for OffPolicy<L> {
     }
 }
 
-/// `MSE(q1, y) + MSE(q2, y)`, one element: the twin critics' regression onto the target
-/// `y` (SB3's TD3 loss; SAC halves the sum, `crate::sac`).
-pub fn twin_mse(
-    q1: foosball_nets::Tensor<1>,
-    q2: foosball_nets::Tensor<1>,
-    target: foosball_nets::Tensor<1>,
-) -> foosball_nets::Tensor<1> {
-    (q1 - target.clone()).square().mean() + (q2 - target).square().mean()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -53,6 +53,10 @@ pub trait Rows {
     fn sub_matrix(&self, a: &Self::M, b: &Self::M) -> Self::M;
     /// `m * scale`, element-wise.
     fn scale_matrix(&self, m: &Self::M, scale: f32) -> Self::M;
+    /// `a + b`, element-wise.
+    fn add_matrix(&self, a: &Self::M, b: &Self::M) -> Self::M;
+    /// `clamp(m, lo, hi)`, element-wise.
+    fn clamp_matrix(&self, m: &Self::M, lo: f32, hi: f32) -> Self::M;
     /// The mean of `m`'s squared elements, `[1]`.
     fn mean_square(&self, m: &Self::M) -> Self::V;
 }
@@ -126,6 +130,12 @@ impl Rows for DeviceRows {
     }
     fn scale_matrix(&self, m: &Tensor<2>, scale: f32) -> Tensor<2> {
         m.clone().mul_scalar(scale)
+    }
+    fn add_matrix(&self, a: &Tensor<2>, b: &Tensor<2>) -> Tensor<2> {
+        a.clone() + b.clone()
+    }
+    fn clamp_matrix(&self, m: &Tensor<2>, lo: f32, hi: f32) -> Tensor<2> {
+        m.clone().clamp(lo, hi)
     }
     fn mean_square(&self, m: &Tensor<2>) -> Tensor<1> {
         m.clone().square().mean()
@@ -232,6 +242,18 @@ impl Rows for HostRows {
             cols: m.cols,
         }
     }
+    fn add_matrix(&self, a: &Matrix, b: &Matrix) -> Matrix {
+        Matrix {
+            data: zip(&a.data, &b.data, |a, b| a + b),
+            cols: a.cols,
+        }
+    }
+    fn clamp_matrix(&self, m: &Matrix, lo: f32, hi: f32) -> Matrix {
+        Matrix {
+            data: map(&m.data, |x| x.clamp(lo, hi)),
+            cols: m.cols,
+        }
+    }
     fn mean_square(&self, m: &Matrix) -> Vec<f32> {
         self.mean(&self.square(&m.data))
     }
@@ -290,6 +312,12 @@ mod tests {
         check(
             h.mean_square(&h.scale_matrix(&h.sub_matrix(&hm, &hn), 3.0)),
             d.mean_square(&d.scale_matrix(&d.sub_matrix(&dm, &dn), 3.0)),
+        );
+        let clamped = h.clamp_matrix(&h.add_matrix(&hm, &hn), -1.0, 1.5);
+        assert_eq!(clamped.data, vec![1.5, -1.0, 1.5, 1.5]);
+        assert_eq!(
+            host(d.clamp_matrix(&d.add_matrix(&dm, &dn), -1.0, 1.5)),
+            clamped.data
         );
     }
 }

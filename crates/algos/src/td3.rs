@@ -10,18 +10,24 @@
 //!    both target networks (targets move only on these delayed steps).
 //!
 //! Exploration adds `N(0, action_noise^2)` to the deterministic action, clipped to `[-1, 1]`.
+//!
+//! The step computes the losses' gradients with respect to the networks' outputs
+//! (`dL/dQk = 2 (Qk - y) / n`; the actor's `dL/dQ1 = -1 / n`, walked back through the
+//! frozen critic to the actions) and lets the networks walk them back, as SAC's does:
+//! Burn's autodiff, or the host MLP path (`backend = "host"`, [`crate::td3_networks`]).
 
 use crate::agent::{ActMode, AgentError, Metrics};
 use crate::config::{ConfigError, DEFAULT_GAMMA, NetConfig, OffPolicyConfig, check_gamma, ensure};
-use crate::off_policy::{OffPolicy, OffPolicyLearner, twin_mse};
+use crate::critics::{Critics, Walk};
+use crate::network_path::OnPath;
+use crate::off_policy::{OffPolicy, OffPolicyLearner};
 use crate::replay::ReplayBatch;
-use crate::rows::{DeviceRows, bellman};
-use crate::tensors::{host, matrix, mean, standard_normal, vector};
+use crate::rows::{Rows, bellman};
+use crate::td3_networks::{BurnNetworks, HostNetworks, Modules, Td3Networks};
+use crate::tensors::{host, matrix, standard_normal};
 use burn::module::Module;
-use foosball_nets::store::{load_module, save_module};
 use foosball_nets::{
-    Adam, DeterministicActor, Device, ObsShape, Scalar, Snapshot, SnapshotError, Tensor, TwinQ,
-    polyak_update,
+    Adam, DeterministicActor, Device, ObsShape, Scalar, Snapshot, SnapshotError, TwinQ,
 };
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -91,12 +97,14 @@ impl Td3Config {
 
 /// Target policy smoothing: `clip(next_actions + clip(noise, -clip, clip), -1, 1)`,
 /// element by element, `[batch, action_dim]`.
-pub fn smoothed_target_actions(
-    next_actions: Tensor<2>,
-    noise: Tensor<2>,
+pub fn smoothed_target_actions<R: Rows>(
+    r: &R,
+    next_actions: &R::M,
+    noise: &R::M,
     noise_clip: f32,
-) -> Tensor<2> {
-    (next_actions + noise.clamp(-noise_clip, noise_clip)).clamp(-1.0, 1.0)
+) -> R::M {
+    let noise = r.clamp_matrix(noise, -noise_clip, noise_clip);
+    r.clamp_matrix(&r.add_matrix(next_actions, &noise), -1.0, 1.0)
 }
 
 /// TD3's networks, optimisers and counters.
@@ -105,12 +113,7 @@ pub struct Td3 {
     obs_dim: usize,
     action_dim: usize,
     device: Device,
-    actor: DeterministicActor,
-    actor_target: DeterministicActor,
-    critic: TwinQ,
-    critic_target: TwinQ,
-    actor_optim: Adam,
-    critic_optim: Adam,
+    networks: OnPath<BurnNetworks, HostNetworks>,
     gradient_steps: u64,
     last_actor_loss: Scalar,
 }
@@ -135,16 +138,19 @@ impl Td3 {
         let mut init = n.init(obs, action_dim, &mut rng, device);
         let actor = DeterministicActor::new(&mut init);
         let critic = TwinQ::new(&mut init);
+        let modules = Modules {
+            actor_target: actor.clone().no_grad(),
+            critic_target: critic.clone().no_grad(),
+            actor,
+            critic,
+        };
+        let adam = || Adam::new(n.adam.clone());
+        let networks = BurnNetworks::new(modules, adam(), adam(), device);
         let learner = Td3 {
             obs_dim,
             action_dim,
             device: device.clone(),
-            actor_target: actor.clone().no_grad(),
-            critic_target: critic.clone().no_grad(),
-            actor_optim: Adam::new(n.adam.clone()),
-            critic_optim: Adam::new(n.adam.clone()),
-            actor,
-            critic,
+            networks: OnPath::Burn(Box::new(networks)),
             gradient_steps: 0,
             last_actor_loss: Scalar::Host(f64::NAN),
             config,
@@ -154,25 +160,120 @@ impl Td3 {
         OffPolicy::new(learner, (obs, action_dim), (schedule, gamma), lr, rng)
     }
 
+    /// The same learner computing on the host MLP path (`backend = "host"`), from the
+    /// same networks; an error names what that path does not compute (an image
+    /// observation, layer normalisation). Call before the first step: the optimisers
+    /// start fresh.
+    pub fn on_host_path(&mut self) -> Result<(), String> {
+        let adam = || Adam::new(self.config.net.adam.clone());
+        (self.networks).to_host(|modules| HostNetworks::from_modules(modules, adam(), adam()))
+    }
+
+    /// The networks as Burn modules (the host path's copied out).
+    pub fn modules(&self) -> Modules {
+        self.networks.modules()
+    }
+
     /// The actor.
-    pub fn actor(&self) -> &DeterministicActor {
-        &self.actor
+    pub fn actor(&self) -> DeterministicActor {
+        self.modules().actor
     }
 
     /// The twin critics.
-    pub fn critic(&self) -> &TwinQ {
-        &self.critic
+    pub fn critic(&self) -> TwinQ {
+        self.modules().critic
+    }
+}
+
+/// What a gradient step reads besides its networks and minibatch.
+struct StepContext<'a> {
+    config: &'a Td3Config,
+    obs_dim: usize,
+    action_dim: usize,
+    /// Gradient steps taken before this one.
+    gradient_steps: u64,
+}
+
+impl StepContext<'_> {
+    /// One gradient step (steps 1-3 of the module docs) on either path: its metrics but
+    /// the actor's loss, and the actor's loss when the actor stepped.
+    fn step<N: Td3Networks>(
+        &self,
+        nets: &mut N,
+        batch: &ReplayBatch,
+        lr: f64,
+        rng: &mut ChaCha8Rng,
+    ) -> (Metrics, Option<Scalar>) {
+        let c = self.config;
+        let r = nets.critics().rows();
+        let (o, a) = (self.obs_dim, self.action_dim);
+        let n = batch.rewards.len();
+        let per_row = 1.0 / n as f32;
+
+        // 1-2. Critics against the smoothed target: dL/dQk = 2 (Qk - y) / n.
+        let next_obs = r.matrix(&batch.next_obs, o);
+        let noise: Vec<f32> = standard_normal(n, a, rng)
+            .iter()
+            .map(|e| e * c.target_policy_noise)
+            .collect();
+        let next_actions = smoothed_target_actions(
+            &r,
+            &nets.target_actions(&next_obs),
+            &r.matrix(&noise, a),
+            c.target_noise_clip,
+        );
+        let min_q_next = nets.critics().target_min(&next_obs, &next_actions);
+        let (rewards, dones) = (r.vector(&batch.rewards), r.vector(&batch.dones));
+        let discount = c.off_policy.bootstrap_discount(c.gamma);
+        let y = bellman(&r, &rewards, &dones, &min_q_next, discount);
+        let obs = r.matrix(&batch.obs, o);
+        let batch_actions = r.matrix(&batch.actions, a);
+        let (q1, q2) = nets.critics().q_values(&obs, &batch_actions, Walk::Params);
+        let (e1, e2) = (r.sub(&q1, &y), r.sub(&q2, &y));
+        let critic_loss = r.add(&r.mean(&r.square(&e1)), &r.mean(&r.square(&e2)));
+        let dq = [
+            r.affine(&e1, 2.0 * per_row, 0.0),
+            r.affine(&e2, 2.0 * per_row, 0.0),
+        ];
+        let critic_report = nets.critics().critic_step([&dq[0], &dq[1]], lr);
+
+        // 3. Delayed actor and target updates: L = -mean(Q1(s, pi(s))), dL/dQ1 = -1 / n.
+        let actor_loss = (self.gradient_steps + 1)
+            .is_multiple_of(c.policy_delay)
+            .then(|| {
+                let actions = nets.actions(&obs);
+                let q_pi = nets.critics().first_q(&obs, &actions);
+                let d_q_pi = r.affine(&q_pi, 0.0, -per_row);
+                let d_actions = nets.critics().action_gradient(&[&d_q_pi]);
+                nets.actor_step(&d_actions, lr);
+                let tau = c.off_policy.tau;
+                nets.critics().update_target(tau);
+                nets.update_actor_target(tau);
+                r.scalar(&r.affine(&r.mean(&q_pi), -1.0, 0.0))
+            });
+
+        let metrics = Metrics(vec![
+            ("critic_loss", r.scalar(&critic_loss)),
+            ("q_mean", r.scalar(&r.mean(&q1))),
+            ("critic_grad_norm", critic_report.grad_norm),
+        ]);
+        (metrics, actor_loss)
     }
 }
 
 impl OffPolicyLearner for Td3 {
     fn policy_act(&mut self, obs: &[f32], mode: ActMode, rng: &mut ChaCha8Rng) -> Vec<f32> {
-        let device = self.device.clone().without_autodiff();
-        let mut actions = host(
-            self.actor
-                .valid()
-                .forward(matrix(obs, self.obs_dim, &device)),
-        );
+        let mut actions = match &mut self.networks {
+            OnPath::Burn(burn) => {
+                let device = self.device.clone().without_autodiff();
+                host(
+                    burn.actor
+                        .valid()
+                        .forward(matrix(obs, self.obs_dim, &device)),
+                )
+            }
+            OnPath::Host(host) => host.actor.forward_detached(obs),
+        };
         let sigma = self.config.action_noise;
         if mode == ActMode::Explore && sigma > 0.0 {
             let noise = standard_normal(actions.len(), 1, rng);
@@ -184,60 +285,22 @@ impl OffPolicyLearner for Td3 {
     }
 
     fn train_step(&mut self, batch: &ReplayBatch, lr: f64, rng: &mut ChaCha8Rng) -> Metrics {
-        let (o, a) = (self.obs_dim, self.action_dim);
-        let n = batch.rewards.len();
-        let dev = self.device.clone();
-        let plain = dev.clone().without_autodiff();
-        let c = &self.config;
-
-        // 1-2. Critics against the smoothed target.
-        let next_obs = matrix(&batch.next_obs, o, &plain);
-        let noise: Vec<f32> = standard_normal(n, a, rng)
-            .iter()
-            .map(|e| e * c.target_policy_noise)
-            .collect();
-        let next_actions = smoothed_target_actions(
-            self.actor_target.valid().forward(next_obs.clone()),
-            matrix(&noise, a, &plain),
-            c.target_noise_clip,
-        );
-        let min_q_next = self.critic_target.valid().min(next_obs, next_actions);
-        let rewards = vector(&batch.rewards, &plain);
-        let dones = vector(&batch.dones, &plain);
-        let discount = c.off_policy.bootstrap_discount(c.gamma);
-        let rows = DeviceRows { device: plain };
-        let target = bellman(&rows, &rewards, &dones, &min_q_next, discount).autodiff();
-        let obs = matrix(&batch.obs, o, &dev);
-        let (q1, q2) = self
-            .critic
-            .forward(obs.clone(), matrix(&batch.actions, a, &dev));
-        let critic_loss = twin_mse(q1.clone(), q2, target);
-        let critic_loss_value = mean(critic_loss.clone().inner());
-        let mut grads = critic_loss.backward();
-        let critic_report = self
-            .critic_optim
-            .step_in_place(&mut self.critic, &mut grads, lr);
+        let context = StepContext {
+            config: &self.config,
+            obs_dim: self.obs_dim,
+            action_dim: self.action_dim,
+            gradient_steps: self.gradient_steps,
+        };
+        let (Metrics(mut metrics), actor_loss) = match &mut self.networks {
+            OnPath::Burn(burn) => context.step(burn.as_mut(), batch, lr, rng),
+            OnPath::Host(host) => context.step(host.as_mut(), batch, lr, rng),
+        };
         self.gradient_steps += 1;
-
-        // 3. Delayed actor and target updates.
-        if self.gradient_steps.is_multiple_of(c.policy_delay) {
-            let q_pi = self.critic.q1_frozen(obs.clone(), self.actor.forward(obs));
-            let actor_loss = q_pi.mean().neg();
-            self.last_actor_loss = mean(actor_loss.clone().inner());
-            let mut grads = actor_loss.backward();
-            self.actor_optim
-                .step_in_place(&mut self.actor, &mut grads, lr);
-            let tau = c.off_policy.tau;
-            polyak_update(&mut self.critic_target, &self.critic, tau);
-            polyak_update(&mut self.actor_target, &self.actor, tau);
+        if let Some(loss) = actor_loss {
+            self.last_actor_loss = loss;
         }
-
-        Metrics(vec![
-            ("critic_loss", critic_loss_value),
-            ("actor_loss", self.last_actor_loss.clone()),
-            ("q_mean", mean(q1.inner())),
-            ("critic_grad_norm", critic_report.grad_norm),
-        ])
+        metrics.insert(1, ("actor_loss", self.last_actor_loss.clone()));
+        Metrics(metrics)
     }
 
     fn gradient_steps(&self) -> u64 {
@@ -245,40 +308,52 @@ impl OffPolicyLearner for Td3 {
     }
 
     fn save(&self, dir: &Path) -> Result<(), AgentError> {
-        save_module(&self.actor, &dir.join("actor.bpk"))?;
-        save_module(&self.actor_target, &dir.join("actor_target.bpk"))?;
-        save_module(&self.critic, &dir.join("critic.bpk"))?;
-        save_module(&self.critic_target, &dir.join("critic_target.bpk"))?;
-        Ok(())
+        self.modules().save(dir)
     }
 
     fn zero_obs_inputs(&mut self, inputs: &[usize]) -> Result<(), String> {
-        self.actor.zero_obs_inputs(inputs)?;
-        self.actor_target.zero_obs_inputs(inputs)?;
-        self.critic.zero_obs_inputs(inputs)?;
-        self.critic_target.zero_obs_inputs(inputs)
+        let mut modules = self.modules();
+        modules.zero_obs_inputs(inputs)?;
+        self.networks.set_modules(modules)
     }
 
     fn load(&mut self, dir: &Path) -> Result<(), AgentError> {
-        self.actor = load_module(self.actor.clone(), &dir.join("actor.bpk"))?;
-        self.actor_target = load_module(self.actor_target.clone(), &dir.join("actor_target.bpk"))?;
-        self.critic = load_module(self.critic.clone(), &dir.join("critic.bpk"))?;
-        self.critic_target =
-            load_module(self.critic_target.clone(), &dir.join("critic_target.bpk"))?;
-        Ok(())
+        let modules = self.modules().load(dir)?;
+        self.networks
+            .set_modules(modules)
+            .map_err(|message| AgentError::File {
+                path: dir.to_path_buf(),
+                message,
+            })
     }
 
     fn save_state<'a>(&'a self, snap: &mut Snapshot<'a>) {
-        self.actor_optim.save_state(snap, "td3.actor_adam");
-        self.critic_optim.save_state(snap, "td3.critic_adam");
+        match &self.networks {
+            OnPath::Burn(burn) => {
+                burn.actor_optim.save_state(snap, "td3.actor_adam");
+                burn.critics.save_state(snap, "td3");
+            }
+            OnPath::Host(host) => {
+                host.actor_optim.save_state(snap, "td3.actor_adam");
+                host.critics.save_state(snap, "td3");
+            }
+        }
         snap.put_u64("td3.gradient_steps", self.gradient_steps);
         snap.put_f64("td3.last_actor_loss", self.last_actor_loss.clone().read());
     }
 
     fn load_state(&mut self, snap: &Snapshot<'_>) -> Result<(), SnapshotError> {
         let d = &self.device;
-        self.actor_optim.load_state(snap, "td3.actor_adam", d)?;
-        self.critic_optim.load_state(snap, "td3.critic_adam", d)?;
+        match &mut self.networks {
+            OnPath::Burn(burn) => {
+                burn.actor_optim.load_state(snap, "td3.actor_adam", d)?;
+                burn.critics.load_state(snap, "td3")?;
+            }
+            OnPath::Host(host) => {
+                host.actor_optim.load_state(snap, "td3.actor_adam", d)?;
+                host.critics.load_state(snap, "td3", d)?;
+            }
+        }
         self.gradient_steps = snap.u64("td3.gradient_steps")?;
         self.last_actor_loss = Scalar::Host(snap.f64("td3.last_actor_loss")?);
         Ok(())
@@ -288,17 +363,141 @@ impl OffPolicyLearner for Td3 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use foosball_nets::Backend;
+    use crate::test_support::{
+        batch, device, gradient_revealing, host_follows_burn, host_path_refusals, steps_as_expected,
+    };
 
     #[test]
     fn target_smoothing_clips_the_noise_then_the_action_per_element() {
-        let d = Backend::default_cpu().unwrap().device().unwrap();
-        let next = matrix(&[0.9, -0.2, 0.0, 0.1], 2, &d);
-        let noise = matrix(&[0.7, -0.1, -0.8, 0.3], 2, &d);
-        let got = host(smoothed_target_actions(next, noise, 0.5));
+        let r = crate::rows::HostRows;
+        let next = r.matrix(&[0.9, -0.2, 0.0, 0.1], 2);
+        let noise = r.matrix(&[0.7, -0.1, -0.8, 0.3], 2);
+        let got = smoothed_target_actions(&r, &next, &noise, 0.5).data;
         let want = [1.0, -0.3, -0.5, 0.4];
         for (g, w) in got.iter().zip(want) {
             assert!((g - w).abs() < 1e-6, "{got:?}");
         }
+    }
+
+    /// An `(o, a)` agent from `config` and `seed`, on the host path when `host_path`.
+    fn on_path((o, a): (usize, usize), config: &Td3Config, seed: u64, host_path: bool) -> Td3Agent {
+        let mut agent = Td3::agent(o, a, config.clone(), seed, &device());
+        if host_path {
+            agent.learner_mut().on_host_path().unwrap();
+        }
+        agent
+    }
+
+    /// Every parameter of the networks.
+    fn flat(m: &Modules) -> Vec<f32> {
+        let mut all = foosball_nets::params::host_params(&m.actor).concat();
+        all.extend(foosball_nets::params::host_params(&m.actor_target).concat());
+        all.extend(foosball_nets::params::host_params(&m.critic).concat());
+        all.extend(foosball_nets::params::host_params(&m.critic_target).concat());
+        all
+    }
+
+    /// One step of TD3's losses written as Stable-Baselines3 writes them, gradients by
+    /// Burn's autodiff through each whole loss (the way this file computed its update
+    /// before it was written over [`Td3Networks`]), on `m` with `config`'s Adam; the
+    /// actor steps (`policy_delay` = 1).
+    fn reference_step(
+        mut m: Modules,
+        c: &Td3Config,
+        (o, a): (usize, usize),
+        batch: &ReplayBatch,
+        rng: &mut ChaCha8Rng,
+    ) -> Modules {
+        use crate::tensors::vector;
+        let dev = device();
+        let plain = dev.clone().without_autodiff();
+        let (lr, n) = (10.0, batch.rewards.len());
+        let adam = || Adam::new(c.net.adam.clone());
+        // Critics.
+        let next_obs = matrix(&batch.next_obs, o, &plain);
+        let noise = matrix(&standard_normal(n, a, rng), a, &plain)
+            .mul_scalar(c.target_policy_noise)
+            .clamp(-c.target_noise_clip, c.target_noise_clip);
+        let next_actions =
+            (m.actor_target.valid().forward(next_obs.clone()) + noise).clamp(-1.0, 1.0);
+        let min_q_next = m.critic_target.valid().min(next_obs, next_actions);
+        let not_done = vector(&batch.dones, &plain).neg().add_scalar(1.0);
+        let y =
+            (vector(&batch.rewards, &plain) + not_done.mul_scalar(c.gamma) * min_q_next).autodiff();
+        let obs = matrix(&batch.obs, o, &dev);
+        let (q1, q2) = m
+            .critic
+            .forward(obs.clone(), matrix(&batch.actions, a, &dev));
+        let loss = (q1 - y.clone()).square().mean() + (q2 - y).square().mean();
+        adam().step_in_place(&mut m.critic, &mut loss.backward(), lr);
+        // Actor against the updated first critic, then both targets.
+        let loss = m
+            .critic
+            .q1_frozen(obs.clone(), m.actor.forward(obs))
+            .mean()
+            .neg();
+        adam().step_in_place(&mut m.actor, &mut loss.backward(), lr);
+        let tau = c.off_policy.tau;
+        foosball_nets::polyak_update(&mut m.critic_target, &m.critic, tau);
+        foosball_nets::polyak_update(&mut m.actor_target, &m.actor, tau);
+        m
+    }
+
+    /// TD3's update on `(o, a, hidden)` networks, on either path, against
+    /// [`reference_step`]: one step from the same networks, minibatch and noise.
+    fn check_against_autodiff(mut config: Td3Config, (o, a): (usize, usize), hidden: Vec<usize>) {
+        gradient_revealing(&mut config.net);
+        config.net.hidden = hidden;
+        config.policy_delay = 1;
+        let batch = batch(32, o, a, 0, 9);
+        let make = |host_path| on_path((o, a), &config, 3, host_path);
+        let start = make(false).learner().modules();
+        let expected = flat(&reference_step(
+            start.clone(),
+            &config,
+            (o, a),
+            &batch,
+            &mut ChaCha8Rng::seed_from_u64(4),
+        ));
+        steps_as_expected(make, |l| flat(&l.modules()), &batch, &expected);
+    }
+
+    #[test]
+    fn the_update_is_the_gradient_of_td3s_losses_on_both_paths() {
+        check_against_autodiff(Td3Config::default(), (38, 8), vec![64, 64]);
+        check_against_autodiff(Td3Config::default(), (38, 8), vec![256, 256]);
+        let options = Td3Config {
+            target_policy_noise: 0.6,
+            target_noise_clip: 0.3,
+            off_policy: OffPolicyConfig {
+                tau: 0.1,
+                ..OffPolicyConfig::default()
+            },
+            net: NetConfig {
+                activation: foosball_nets::Activation::Tanh,
+                ..NetConfig::default()
+            },
+            ..Td3Config::default()
+        };
+        check_against_autodiff(options, (5, 3), vec![16]);
+    }
+
+    #[test]
+    fn the_host_path_follows_the_burn_path_over_many_steps_and_through_files() {
+        let mut config = Td3Config::default();
+        config.net.hidden = vec![64, 64];
+        let make = |host_path| on_path((38, 8), &config, 11, host_path);
+        host_follows_burn(make, |l| flat(&l.modules()), (38, 8));
+    }
+
+    #[test]
+    fn the_host_path_refuses_what_it_does_not_compute() {
+        host_path_refusals(|obs, critic_layer_norm| {
+            let mut config = Td3Config::default();
+            config.net.critic_layer_norm = critic_layer_norm;
+            Td3::agent(obs, 2, config, 1, &device())
+                .learner_mut()
+                .on_host_path()
+        });
     }
 }

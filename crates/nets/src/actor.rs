@@ -5,7 +5,7 @@ use crate::distributions::{
     LOG_STD_MAX, LOG_STD_MIN, diag_gaussian_entropy, diag_gaussian_log_prob,
     squashed_gaussian_log_prob,
 };
-use crate::host_actor::HostSquashedGaussian;
+use crate::host_actor::{HostDeterministic, HostSquashedGaussian};
 use crate::host_mlp::HostMlp;
 use crate::init::NetInit;
 use crate::mlp::Mlp;
@@ -109,6 +109,19 @@ impl DeterministicActor {
     /// Actions in `[-1, 1]`, `[batch, action_dim]`.
     pub fn forward(&self, obs: Tensor<2>) -> Tensor<2> {
         tanh(self.net.forward(self.encoder.forward(obs)))
+    }
+
+    /// A copy on the host MLP path; an error for an image observation or layer
+    /// normalisation, which that path does not compute.
+    pub fn to_host(&self) -> Result<HostDeterministic, String> {
+        self.encoder.per_value_inputs()?;
+        Ok(HostDeterministic::new(HostMlp::from_mlp(&self.net)?))
+    }
+
+    /// This actor with `host`'s parameters (same widths).
+    pub fn with_host_params(mut self, host: &HostMlp) -> Result<Self, String> {
+        self.net = host.write_to(self.net)?;
+        Ok(self)
     }
 }
 

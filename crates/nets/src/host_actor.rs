@@ -1,8 +1,10 @@
-//! SAC's squashed Gaussian actor on the host MLP path ([`crate::host_mlp`]): the same
-//! network and distribution as [`crate::SquashedGaussianActor`], with the distribution's
-//! backward pass written out.
+//! The actors on the host MLP path ([`crate::host_mlp`]), with their output's backward
+//! pass written out: SAC's squashed Gaussian ([`HostSquashedGaussian`], the network and
+//! distribution of [`crate::SquashedGaussianActor`]) and TD3's deterministic tanh actor
+//! ([`HostDeterministic`], [`crate::DeterministicActor`]'s: `a = tanh(mlp(obs))`,
+//! backward `dz = da (1 - a^2)`).
 //!
-//! Forward, per row (`A` actions): `z = mlp(obs) [2A]`, `mean = z[..A]`,
+//! The squashed Gaussian's forward, per row (`A` actions): `z = mlp(obs) [2A]`, `mean = z[..A]`,
 //! `log_std = clamp(z[A..], LOG_STD_MIN, LOG_STD_MAX)`, `u = mean + exp(log_std) * noise`,
 //! `a = tanh(u)`,
 //! `log pi = sum_j (-0.5 ((u_j - mean_j) / std_j)^2 - log_std_j - 0.5 ln 2 pi - ln(1 - tanh(u_j)^2 + eps))`.
@@ -173,6 +175,61 @@ impl HostSquashedGaussian {
                 dz[i * 2 * a + a + j] = if unclamped[k] { d_log_std } else { 0.0 };
             }
         }
+        self.mlp.backward(&mut self.tape, &dz, Some(grads), None);
+    }
+}
+
+/// TD3's actor `a = tanh(mlp(obs))` with its latest kept pass.
+#[derive(Clone, Debug)]
+pub struct HostDeterministic {
+    /// `obs [batch, obs_dim] -> [batch, action_dim]`, before the tanh.
+    pub mlp: HostMlp,
+    /// The latest [`HostDeterministic::forward`] and its actions.
+    tape: MlpTape,
+    actions: Vec<f32>,
+    /// The passes of [`HostDeterministic::forward_detached`].
+    scratch: MlpTape,
+}
+
+impl HostDeterministic {
+    /// The actor computing with `mlp`.
+    pub fn new(mlp: HostMlp) -> Self {
+        Self {
+            mlp,
+            tape: MlpTape::default(),
+            actions: Vec::new(),
+            scratch: MlpTape::default(),
+        }
+    }
+
+    /// Actions `[batch, action_dim]` in `[-1, 1]` for `obs [batch, obs_dim]`, kept for
+    /// [`HostDeterministic::backward`].
+    pub fn forward(&mut self, obs: &[f32]) -> Vec<f32> {
+        let z = self.mlp.forward(obs, &mut self.tape);
+        self.actions.clear();
+        self.actions.extend(z.iter().map(|z| z.tanh()));
+        self.actions.clone()
+    }
+
+    /// As [`HostDeterministic::forward`], not kept (target actions, acting).
+    pub fn forward_detached(&mut self, obs: &[f32]) -> Vec<f32> {
+        let z = self.mlp.forward(obs, &mut self.scratch);
+        z.iter().map(|z| z.tanh()).collect()
+    }
+
+    /// Adds `dL/dparams` of the latest kept pass to `grads` (the MLP's layout), given
+    /// `d_actions [batch, action_dim]`.
+    pub fn backward(&mut self, d_actions: &[f32], grads: &mut [f32]) {
+        assert_eq!(
+            d_actions.len(),
+            self.actions.len(),
+            "d_actions [batch, action_dim]"
+        );
+        let dz: Vec<f32> = d_actions
+            .iter()
+            .zip(&self.actions)
+            .map(|(d, a)| d * (1.0 - a * a))
+            .collect();
         self.mlp.backward(&mut self.tape, &dz, Some(grads), None);
     }
 }

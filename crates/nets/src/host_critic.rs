@@ -14,6 +14,8 @@ pub struct HostTwinQ {
     tapes: [MlpTape; 2],
     /// The passes of [`HostTwinQ::min`], not walked back.
     scratch: MlpTape,
+    /// The action width of the kept pass.
+    action_dim: usize,
 }
 
 impl HostTwinQ {
@@ -31,6 +33,7 @@ impl HostTwinQ {
             q: [q1, q2],
             tapes: Default::default(),
             scratch: MlpTape::default(),
+            action_dim: 0,
         })
     }
 
@@ -56,15 +59,28 @@ impl HostTwinQ {
     /// `(Q1, Q2)`, `[batch]` each, for `obs [batch, obs_dim]` and `actions [batch,
     /// action_dim]`, kept for the backward passes.
     pub fn forward(&mut self, obs: &[f32], actions: &[f32]) -> (Vec<f32>, Vec<f32>) {
-        let joined = joined(obs, actions, self.q[0].input_dim());
+        let joined = self.kept_input(obs, actions);
         let q1 = self.q[0].forward(&joined, &mut self.tapes[0]).to_vec();
         let q2 = self.q[1].forward(&joined, &mut self.tapes[1]).to_vec();
         (q1, q2)
     }
 
+    /// `Q1` alone, `[batch]`, kept for [`HostTwinQ::action_gradient`] (TD3's actor loss).
+    pub fn first(&mut self, obs: &[f32], actions: &[f32]) -> Vec<f32> {
+        let joined = self.kept_input(obs, actions);
+        self.q[0].forward(&joined, &mut self.tapes[0]).to_vec()
+    }
+
+    /// `[obs, actions]` for a kept pass, its action width noted.
+    fn kept_input(&mut self, obs: &[f32], actions: &[f32]) -> Vec<f32> {
+        let (joined, action_dim) = joined(obs, actions, self.q[0].input_dim());
+        self.action_dim = action_dim;
+        joined
+    }
+
     /// `min(Q1, Q2)`, `[batch]` (nothing kept for a backward pass).
     pub fn min(&mut self, obs: &[f32], actions: &[f32]) -> Vec<f32> {
-        let joined = joined(obs, actions, self.q[0].input_dim());
+        let (joined, _) = joined(obs, actions, self.q[0].input_dim());
         let q1 = self.q[0].forward(&joined, &mut self.scratch).to_vec();
         let q2 = self.q[1].forward(&joined, &mut self.scratch);
         q1.iter().zip(q2).map(|(a, b)| a.min(*b)).collect()
@@ -85,13 +101,15 @@ impl HostTwinQ {
     }
 
     /// `dL/d actions` `[batch, action_dim]` of the latest forward pass given `dq1` and
-    /// `dq2` `[batch]`, the networks' own gradients not computed.
-    pub fn action_gradient(&mut self, dq: [&[f32]; 2], action_dim: usize) -> Vec<f32> {
+    /// `dq2` `[batch]` (`dq1` alone after [`HostTwinQ::first`]), the networks' own
+    /// gradients not computed.
+    pub fn action_gradient(&mut self, dq: &[&[f32]]) -> Vec<f32> {
+        let action_dim = self.action_dim;
         let width = self.q[0].input_dim();
         let batch = self.tapes[0].batch();
         let mut dx = vec![0.0; batch * width];
         let mut sum = vec![0.0; batch * width];
-        for ((q, tape), dq) in self.q.iter().zip(&mut self.tapes).zip(dq) {
+        for ((q, tape), &dq) in self.q.iter().zip(&mut self.tapes).zip(dq) {
             q.backward(tape, dq, None, Some(&mut dx));
             sum.iter_mut().zip(&dx).for_each(|(s, d)| *s += d);
         }
@@ -101,8 +119,8 @@ impl HostTwinQ {
     }
 }
 
-/// `[obs, actions]` side by side, `[batch, width]`.
-fn joined(obs: &[f32], actions: &[f32], width: usize) -> Vec<f32> {
+/// `[obs, actions]` side by side, `[batch, width]`, and the action width.
+fn joined(obs: &[f32], actions: &[f32], width: usize) -> (Vec<f32>, usize) {
     let batch = (obs.len() + actions.len()) / width;
     let (o, a) = (obs.len() / batch.max(1), actions.len() / batch.max(1));
     assert_eq!(
@@ -115,5 +133,5 @@ fn joined(obs: &[f32], actions: &[f32], width: usize) -> Vec<f32> {
         joined.extend_from_slice(s);
         joined.extend_from_slice(a);
     }
-    joined
+    (joined, a)
 }
