@@ -19,7 +19,13 @@ pub fn build_agent(config: &RunConfig, device: &Device) -> Box<dyn Agent + Send>
     let (o, a) = (obs_shape(&config.env.observation), layout::ACTION_DIM);
     let on_host = config.protocol.backend == Some(Backend::Host);
     match &config.algorithm {
-        AlgoConfig::Ppo(c) => Box::new(Ppo::new(o, a, c.clone(), seed, device)),
+        AlgoConfig::Ppo(c) => {
+            let mut agent = Ppo::new(o, a, c.clone(), seed, device);
+            if on_host {
+                agent.on_host_path().expect(VALIDATED);
+            }
+            Box::new(agent)
+        }
         AlgoConfig::Sac(c) => {
             let mut agent = Sac::agent(o, a, c.clone(), seed, device);
             if on_host {

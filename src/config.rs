@@ -711,14 +711,12 @@ impl RunConfig {
         Ok(())
     }
 
-    /// What `backend = "host"` computes: SAC's and TD3's MLPs on vector observations,
-    /// without layer normalisation.
+    /// What `backend = "host"` computes: the learners' MLPs on vector observations,
+    /// without layer normalisation (SAC's and TD3's critics).
     fn check_host_path(&self) -> Result<(), ConfigError> {
-        let why = if self.algo() == Algo::Ppo {
-            "runs SAC and TD3 only so far: use flex for PPO".to_string()
-        } else if self.env.observation.kind == ObservationKind::Image {
+        let why = if self.env.observation.kind == ObservationKind::Image {
             "computes vector observations only: use flex or a GPU backend for images".to_string()
-        } else if self.algorithm.net().critic_layer_norm {
+        } else if self.algo() != Algo::Ppo && self.algorithm.net().critic_layer_norm {
             format!(
                 "does not compute layer normalisation: set {}.net.critic_layer_norm = false or use flex",
                 self.algo()

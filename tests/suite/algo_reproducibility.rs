@@ -111,7 +111,7 @@ fn td3_is_bit_identical_across_thread_counts_on_both_paths() {
 }
 
 #[test]
-fn ppo_is_bit_identical_across_thread_counts() {
+fn ppo_is_bit_identical_across_thread_counts_on_both_paths() {
     // 2 envs x 64 steps = 128 rows, 4 minibatches x 10 epochs = 40 gradient steps per
     // round; 5 rounds = 200 gradient steps.
     let config = PpoConfig {
@@ -119,9 +119,18 @@ fn ppo_is_bit_identical_across_thread_counts() {
         batch_size: 32,
         ..PpoConfig::default()
     };
-    let make = || Ppo::new(3, 1, config.clone(), 5, &device());
-    let a = run(make(), 5, 1);
-    let c = run(make(), 5, 2);
-    assert_eq!(params_of(a.model()), params_of(c.model()));
-    assert_ne!(params_of(a.model()), params_of(make().model()));
+    for host_path in [false, true] {
+        let make = || {
+            let mut ppo = Ppo::new(3, 1, config.clone(), 5, &device());
+            if host_path {
+                ppo.on_host_path().unwrap();
+            }
+            ppo
+        };
+        let a = run(make(), 5, 1);
+        let c = run(make(), 5, 2);
+        let pa = params_of(&a.model());
+        assert_eq!(pa, params_of(&c.model()), "host path {host_path}");
+        assert_ne!(pa, params_of(&make().model()));
+    }
 }

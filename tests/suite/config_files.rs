@@ -139,9 +139,11 @@ fn malformed_files_and_wrong_sections_are_refused() {
             && e.contains("`greedy`, expected `deterministic` or `stochastic`"),
         "{e}"
     );
-    let e = error("algo = \"ppo\"\n[protocol]\nbackend = \"host\"\n");
+    let e = error(
+        "algo = \"ppo\"\n[protocol]\nbackend = \"host\"\n[env.observation]\nkind = \"image\"\n",
+    );
     assert!(
-        e.starts_with("bad.toml:") && e.contains("protocol.backend: `host` runs SAC and TD3 only"),
+        e.starts_with("bad.toml:") && e.contains("protocol.backend: `host` computes vector"),
         "{e}"
     );
     for algo in ["sac", "td3"] {

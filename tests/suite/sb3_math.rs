@@ -6,7 +6,8 @@ use crate::common;
 
 use foosball_rl::algos::ppo::{clipped_surrogate, normalize_advantages};
 use foosball_rl::algos::rollout_buffer::gae;
-use foosball_rl::algos::tensors::{host, matrix, vector};
+use foosball_rl::algos::rows::{DeviceRows, Rows};
+use foosball_rl::algos::tensors::{host, matrix};
 use foosball_rl::nets::distributions::{
     diag_gaussian_entropy, diag_gaussian_log_prob, squashed_gaussian_log_prob,
 };
@@ -110,13 +111,19 @@ fn ppo_clipped_objective_matches_sb3() {
     let Some(cases) = cases() else { return };
     let c = &cases["ppo_clip"];
     assert!(c["normalize_advantage"].as_bool().unwrap());
-    let d = device();
+    let r = DeviceRows {
+        device: device().without_autodiff(),
+    };
     let advantages = normalize_advantages(&floats(&c["advantages"]));
     let s = clipped_surrogate(
-        vector(&floats(&c["log_prob_new"]), &d),
-        vector(&floats(&c["log_prob_old"]), &d),
-        vector(&advantages, &d),
+        &r,
+        (
+            &r.vector(&floats(&c["log_prob_new"])),
+            &r.vector(&floats(&c["log_prob_old"])),
+        ),
+        &r.vector(&advantages),
         c["clip_range"].as_f64().unwrap() as f32,
+        advantages.len(),
     );
     let loss = host(s.loss)[0];
     assert_close(
@@ -125,9 +132,10 @@ fn ppo_clipped_objective_matches_sb3() {
         1e-5,
         "policy_loss",
     );
-    assert_eq!(s.clip_fraction.read(), c["clip_fraction"].as_f64().unwrap());
+    let clip_fraction = f64::from(host(s.clip_fraction)[0]);
+    assert_eq!(clip_fraction, c["clip_fraction"].as_f64().unwrap());
     let kl = c["approx_kl"].as_f64().unwrap();
-    let approx_kl = s.approx_kl.read();
+    let approx_kl = f64::from(host(s.approx_kl)[0]);
     assert!(
         (approx_kl - kl).abs() <= 1e-5 * kl.abs().max(1e-3),
         "{approx_kl} vs {kl}"

@@ -89,8 +89,8 @@ fn each_algorithm_trains_evaluates_and_tests_reproducibly() {
 }
 
 #[test]
-fn sac_and_td3_on_the_host_path_train_and_test_reproducibly() {
-    for algo in ["sac", "td3"] {
+fn each_algorithm_on_the_host_path_trains_and_tests_reproducibly() {
+    for algo in ["ppo", "sac", "td3"] {
         let dir = scratch(&format!("e2e-host-{algo}"));
         let config = dir.join("host.toml");
         let text = common::tiny_config_text(algo, 2, 150);

@@ -130,7 +130,7 @@ fn bench_settings(net: &mut NetConfig, schedule: &mut OffPolicyConfig, hidden: &
 }
 
 /// Times SAC, TD3 and PPO updates (and PPO's act) at `hidden` on `backend`; returns the
-/// figures. The host path times SAC and TD3 (PPO is not on it yet).
+/// figures.
 fn bench_size(hidden: &[usize], algos: &str, reps: usize, backend: Backend) -> Vec<(String, f64)> {
     let device = &backend.device().unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(0);
@@ -144,7 +144,7 @@ fn bench_size(hidden: &[usize], algos: &str, reps: usize, backend: Backend) -> V
     let key = format!("{}{}", size_key(hidden), if host { "_host" } else { "" });
     let mut out = Vec::new();
 
-    let wanted = |algo: &str| algos.split(',').any(|a| a == algo) && (!host || algo != "ppo");
+    let wanted = |algo: &str| algos.split(',').any(|a| a == algo);
     if wanted("sac") {
         let mut sac = SacConfig::default();
         bench_settings(&mut sac.net, &mut sac.off_policy, hidden);
@@ -182,7 +182,11 @@ fn bench_size(hidden: &[usize], algos: &str, reps: usize, backend: Backend) -> V
     };
     ppo.net.hidden = hidden.to_vec();
     ppo.net.activation = Activation::Relu;
-    let agent = std::cell::RefCell::new(Ppo::new(OBS, ACT, ppo, 1, device));
+    let mut agent = Ppo::new(OBS, ACT, ppo, 1, device);
+    if host {
+        agent.on_host_path().unwrap();
+    }
+    let agent = std::cell::RefCell::new(agent);
     let t = median(
         reps,
         device,

@@ -16,6 +16,7 @@ pub mod network_path;
 pub mod off_policy;
 pub mod plane_store;
 pub mod ppo;
+pub mod ppo_networks;
 pub mod replay;
 pub mod rollout;
 pub mod rollout_buffer;

@@ -6,19 +6,27 @@
 //! `L = L_clip + ent_coef * (-mean(entropy)) + vf_coef * MSE(returns, V(s))`,
 //! `L_clip = -mean(min(A ratio, A clip(ratio, 1 - eps, 1 + eps)))`,
 //! `ratio = exp(log pi(a|s) - log pi_old(a|s))`, advantages normalised per minibatch.
+//!
+//! The minibatch step computes the loss's gradients with respect to the networks'
+//! outputs (`dL/d log pi = ratio dL/d ratio` with `dL/d ratio = -A / n` where the
+//! unclipped term is the smaller or the ratio lies inside the clip range, else 0;
+//! `dL/d entropy = -ent_coef / n`; `dL/dV = 2 vf_coef (V - returns) / n`) and lets the
+//! networks walk them back: Burn's autodiff, or the host MLP path (`backend = "host"`,
+//! [`crate::ppo_networks`]).
 
 use crate::agent::{ActMode, Agent, AgentError, Experience, Metrics};
 use crate::config::{ConfigError, DEFAULT_GAMMA, NetConfig, check_gamma, ensure};
+use crate::network_path::OnPath;
+pub use crate::ppo_networks::ActorCritic;
+use crate::ppo_networks::{BurnNetworks, Evaluation, HostNetworks, PpoNetworks};
 use crate::rollout_buffer::{RolloutBuffer, gae};
+use crate::rows::Rows;
 use crate::schedule::LrSchedule;
-use crate::tensors::{host, matrix, mean, standard_normal, vector};
-use burn::module::Module;
-use foosball_nets::distributions::diag_gaussian_log_prob;
-use foosball_nets::host::{is_host, read_all};
+use crate::tensors::standard_normal;
 use foosball_nets::store::{load_module, save_module};
 use foosball_nets::{
-    Activation, Adam, AdamConfig, CnnConfig, Device, GaussianPolicy, ObsShape, Scalar, Snapshot,
-    SnapshotError, Tensor, ValueCritic,
+    Activation, Adam, AdamConfig, CnnConfig, Device, GaussianPolicy, ObsShape, Snapshot,
+    SnapshotError, ValueCritic,
 };
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
@@ -130,69 +138,46 @@ pub fn normalize_advantages(advantages: &[f32]) -> Vec<f32> {
         .collect()
 }
 
-/// The clipped surrogate and its diagnostics for one minibatch.
-pub struct Surrogate {
-    /// `-mean(min(A ratio, A clip(ratio, 1 - eps, 1 + eps)))`, one element.
-    pub loss: Tensor<1>,
+/// The clipped surrogate, its gradient and its diagnostics for one minibatch, `[1]`
+/// values but the gradient.
+pub struct Surrogate<R: Rows> {
+    /// `-mean(min(A ratio, A clip(ratio, 1 - eps, 1 + eps)))`.
+    pub loss: R::V,
+    /// `dL/d log pi`, `[batch]`.
+    pub d_log_prob: R::V,
     /// Share of rows with `|ratio - 1| > eps`.
-    pub clip_fraction: Scalar,
+    pub clip_fraction: R::V,
     /// `mean((ratio - 1) - log ratio)`, the low-variance KL estimate SB3 logs.
-    pub approx_kl: Scalar,
+    pub approx_kl: R::V,
 }
 
-/// PPO's clipped objective; `log_prob` `[batch]` carries the gradient, `old_log_prob`
-/// and `advantages` `[batch]` are constants. The diagnostics are summed on the host in
-/// f64 on a CPU backend (a read is free there) and stay on the device on a GPU, where
-/// only `target_kl` reads the KL estimate back.
-pub fn clipped_surrogate(
-    log_prob: Tensor<1>,
-    old_log_prob: Tensor<1>,
-    advantages: Tensor<1>,
+/// PPO's clipped objective of `log_prob` given `old_log_prob` and `advantages` (all
+/// `[batch]`, `batch` rows), with its gradient with respect to `log_prob`.
+pub fn clipped_surrogate<R: Rows>(
+    r: &R,
+    (log_prob, old_log_prob): (&R::V, &R::V),
+    advantages: &R::V,
     clip: f32,
-) -> Surrogate {
-    let log_ratio = log_prob - old_log_prob;
-    let ratio = log_ratio.clone().exp();
-    let unclipped = advantages.clone() * ratio.clone();
-    let clipped = advantages * ratio.clone().clamp(1.0 - clip, 1.0 + clip);
-    let loss = unclipped.min_pair(clipped).mean().neg();
-    let (ratio, log_ratio) = (ratio.inner(), log_ratio.inner());
-    if !is_host(&ratio.device()) {
-        let excess = ratio.sub_scalar(1.0);
-        return Surrogate {
-            loss,
-            clip_fraction: Scalar::of(excess.clone().abs().greater_elem(clip).float().mean()),
-            approx_kl: Scalar::of((excess - log_ratio).mean()),
-        };
-    }
-    // One read for both.
-    let [ratio, log_ratio]: [Vec<f32>; 2] = read_all(vec![ratio, log_ratio])
-        .into_iter()
-        .map(|d| d.try_into_vec::<f32>().expect("float tensors are f32"))
-        .collect::<Vec<_>>()
-        .try_into()
-        .expect("two tensors read");
-    let n = ratio.len() as f64;
-    let clip_fraction = ratio.iter().filter(|r| (*r - 1.0).abs() > clip).count() as f64 / n;
-    let approx_kl = ratio
-        .iter()
-        .zip(&log_ratio)
-        .map(|(r, l)| f64::from(r - 1.0 - l))
-        .sum::<f64>()
-        / n;
+    batch: usize,
+) -> Surrogate<R> {
+    let per_row = 1.0 / batch as f32;
+    let log_ratio = r.sub(log_prob, old_log_prob);
+    let ratio = r.exp(&log_ratio);
+    let excess = r.affine(&ratio, 1.0, -1.0);
+    let unclipped = r.mul(advantages, &ratio);
+    let clipped = r.mul(advantages, &r.clamp(&ratio, 1.0 - clip, 1.0 + clip));
+    let loss = r.affine(&r.mean(&r.min(&unclipped, &clipped)), -1.0, 0.0);
+    // The gradient passes where the unclipped term is taken, or the clip is not active.
+    let inside = r.le(&r.abs(&excess), &r.vector(&[clip]));
+    let first = r.le(&unclipped, &clipped);
+    let passes = r.sub(&r.add(&first, &inside), &r.mul(&first, &inside));
+    let d_ratio = r.mul(&passes, &r.affine(advantages, -per_row, 0.0));
     Surrogate {
         loss,
-        clip_fraction: clip_fraction.into(),
-        approx_kl: approx_kl.into(),
+        d_log_prob: r.mul(&d_ratio, &ratio),
+        clip_fraction: r.mean(&r.affine(&inside, -1.0, 1.0)),
+        approx_kl: r.mean(&r.sub(&excess, &log_ratio)),
     }
-}
-
-/// PPO's policy and value networks, trained by one optimiser.
-#[derive(Module, Debug)]
-pub struct ActorCritic {
-    /// Gaussian policy with state-independent log-std.
-    pub policy: GaussianPolicy,
-    /// State-value critic.
-    pub value: ValueCritic,
 }
 
 /// What `act(.., Explore)` computed, kept for `observe`.
@@ -202,14 +187,13 @@ struct Pending {
     log_probs: Vec<f32>,
 }
 
-/// PPO: networks, optimiser, the rollout being collected and counters.
+/// PPO: networks and their optimiser, the rollout being collected and counters.
 pub struct Ppo {
     config: PpoConfig,
     obs_dim: usize,
     action_dim: usize,
     device: Device,
-    model: ActorCritic,
-    optim: Adam,
+    networks: OnPath<BurnNetworks, HostNetworks>,
     rng: ChaCha8Rng,
     sample_rng: ChaCha8Rng,
     rollout: RolloutBuffer,
@@ -218,6 +202,61 @@ pub struct Ppo {
     last_obs: Vec<f32>,
     last_dones: Vec<f32>,
     env_steps: u64,
+}
+
+/// One minibatch of a rollout, host values: observations `[batch, obs_dim]`, actions
+/// `[batch, action_dim]`, advantages (normalised when asked), old `log pi` and returns
+/// `[batch]`.
+struct Minibatch {
+    obs: Vec<f32>,
+    actions: Vec<f32>,
+    advantages: Vec<f32>,
+    old_log_probs: Vec<f32>,
+    returns: Vec<f32>,
+}
+
+/// One gradient step on `mb` (the module docs' loss) on either path; `None` when the KL
+/// estimate stops the rollout's epochs first (`target_kl`).
+fn minibatch_step<N: PpoNetworks>(
+    nets: &mut N,
+    c: &PpoConfig,
+    (o, a): (usize, usize),
+    mb: &Minibatch,
+    lr: f64,
+) -> Option<Metrics> {
+    let r = nets.rows();
+    let n = mb.returns.len();
+    let per_row = 1.0 / n as f32;
+    let (obs, actions) = (r.matrix(&mb.obs, o), r.matrix(&mb.actions, a));
+    let Evaluation {
+        log_prob,
+        entropy,
+        values,
+    } = nets.evaluate(&obs, &actions);
+    let old_log_prob = r.vector(&mb.old_log_probs);
+    let advantages = r.vector(&mb.advantages);
+    let s = clipped_surrogate(&r, (&log_prob, &old_log_prob), &advantages, c.clip_range, n);
+    // SB3's early stop needs the KL estimate on the host: one read per minibatch on a
+    // GPU, and only with `target_kl` set.
+    let approx_kl = r.scalar(&s.approx_kl);
+    if c.target_kl
+        .is_some_and(|kl| approx_kl.clone().read() > 1.5 * f64::from(kl))
+    {
+        return None;
+    }
+    let error = r.sub(&values, &r.vector(&mb.returns));
+    let value_loss = r.mean(&r.square(&error));
+    let d_values = r.affine(&error, 2.0 * c.vf_coef * per_row, 0.0);
+    let d_entropy = r.affine(&entropy, 0.0, -c.ent_coef * per_row);
+    let report = nets.step(&s.d_log_prob, &d_entropy, &d_values, lr);
+    Some(Metrics(vec![
+        ("policy_loss", r.scalar(&s.loss)),
+        ("value_loss", r.scalar(&value_loss)),
+        ("entropy", r.scalar(&r.mean(&entropy))),
+        ("approx_kl", approx_kl),
+        ("clip_fraction", r.scalar(&s.clip_fraction)),
+        ("grad_norm", report.grad_norm),
+    ]))
 }
 
 impl Ppo {
@@ -237,12 +276,13 @@ impl Ppo {
         let mut init = n.init(obs, action_dim, &mut rng, device);
         let policy = GaussianPolicy::new(&mut init);
         let value = ValueCritic::new(&mut init);
+        let model = ActorCritic { policy, value };
+        let networks = BurnNetworks::new(model, Adam::new(n.adam.clone()), device, obs_dim);
         Self {
             obs_dim,
             action_dim,
             device: device.clone(),
-            model: ActorCritic { policy, value },
-            optim: Adam::new(n.adam.clone()),
+            networks: OnPath::Burn(Box::new(networks)),
             rng,
             sample_rng: ChaCha8Rng::seed_from_u64(seed),
             rollout: RolloutBuffer::default(),
@@ -255,25 +295,38 @@ impl Ppo {
         }
     }
 
-    /// The policy and value networks.
-    pub fn model(&self) -> &ActorCritic {
-        &self.model
+    /// The same learner computing on the host MLP path (`backend = "host"`), from the
+    /// same networks; an error names what that path does not compute (an image
+    /// observation). Call before the first step: the optimiser starts fresh.
+    pub fn on_host_path(&mut self) -> Result<(), String> {
+        let adam = Adam::new(self.config.net.adam.clone());
+        (self.networks).to_host(|model| HostNetworks::from_modules(model, adam))
     }
 
-    fn values(&self, obs: &[f32]) -> Vec<f32> {
-        let plain = self.device.clone().without_autodiff();
-        host(
-            self.model
-                .value
-                .valid()
-                .forward(matrix(obs, self.obs_dim, &plain)),
-        )
+    /// The policy and value networks (the host path's copied out).
+    pub fn model(&self) -> ActorCritic {
+        self.networks.modules()
+    }
+
+    fn values(&mut self, obs: &[f32]) -> Vec<f32> {
+        match &mut self.networks {
+            OnPath::Burn(burn) => burn.values(obs),
+            OnPath::Host(host) => host.values(obs),
+        }
+    }
+
+    fn optimiser(&self) -> &Adam {
+        match &self.networks {
+            OnPath::Burn(burn) => burn.optimiser(),
+            OnPath::Host(host) => host.optimiser(),
+        }
     }
 
     fn train(&mut self, lr: f64) -> Metrics {
         let c = self.config.clone();
         let (o, a) = (self.obs_dim, self.action_dim);
-        let last_values = self.values(&self.last_obs);
+        let last_obs = self.last_obs.clone();
+        let last_values = self.values(&last_obs);
         let r = &self.rollout;
         let (advantages, returns) = gae(
             &r.rewards,
@@ -285,7 +338,6 @@ impl Ppo {
             c.gae_lambda,
         );
         let rows = r.len();
-        let dev = self.device.clone();
         let mut indices: Vec<usize> = (0..rows).collect();
         let mut rounds = Vec::new();
         'epochs: for _ in 0..c.n_epochs {
@@ -298,41 +350,24 @@ impl Ppo {
                         .collect()
                 };
                 let r = &self.rollout;
-                let obs = matrix(&gather(&r.obs, o), o, &dev);
-                let actions = matrix(&gather(&r.actions, a), a, &dev);
-                let mut adv = gather(&advantages, 1);
-                if c.normalize_advantage && adv.len() > 1 {
-                    adv = normalize_advantages(&adv);
+                let mut mb = Minibatch {
+                    obs: gather(&r.obs, o),
+                    actions: gather(&r.actions, a),
+                    advantages: gather(&advantages, 1),
+                    old_log_probs: gather(&r.log_probs, 1),
+                    returns: gather(&returns, 1),
+                };
+                if c.normalize_advantage && mb.advantages.len() > 1 {
+                    mb.advantages = normalize_advantages(&mb.advantages);
                 }
-                let old_log_prob = vector(&gather(&r.log_probs, 1), &dev);
-                let batch_returns = vector(&gather(&returns, 1), &dev);
-
-                let (log_prob, entropy) = self.model.policy.evaluate(obs.clone(), actions);
-                let values = self.model.value.forward(obs);
-                let surrogate =
-                    clipped_surrogate(log_prob, old_log_prob, vector(&adv, &dev), c.clip_range);
-                // SB3's early stop needs the KL estimate on the host: one read per
-                // minibatch on a GPU, and only with `target_kl` set.
-                if c.target_kl
-                    .is_some_and(|kl| surrogate.approx_kl.clone().read() > 1.5 * f64::from(kl))
-                {
-                    break 'epochs;
+                let metrics = match &mut self.networks {
+                    OnPath::Burn(burn) => minibatch_step(burn.as_mut(), &c, (o, a), &mb, lr),
+                    OnPath::Host(host) => minibatch_step(host.as_mut(), &c, (o, a), &mb, lr),
+                };
+                match metrics {
+                    Some(m) => rounds.push(m),
+                    None => break 'epochs,
                 }
-                let value_loss = (batch_returns - values).square().mean();
-                let entropy_loss = entropy.clone().mean().neg();
-                let loss = surrogate.loss.clone()
-                    + entropy_loss.mul_scalar(c.ent_coef)
-                    + value_loss.clone().mul_scalar(c.vf_coef);
-                let mut grads = loss.backward();
-                let report = self.optim.step_in_place(&mut self.model, &mut grads, lr);
-                rounds.push(Metrics(vec![
-                    ("policy_loss", mean(surrogate.loss.inner())),
-                    ("value_loss", mean(value_loss.inner())),
-                    ("entropy", mean(entropy.inner())),
-                    ("approx_kl", surrogate.approx_kl),
-                    ("clip_fraction", surrogate.clip_fraction),
-                    ("grad_norm", report.grad_norm),
-                ]));
             }
         }
         let mut metrics = Metrics::mean(rounds);
@@ -373,33 +408,31 @@ impl Agent for Ppo {
     }
 
     fn act(&mut self, obs: &[f32], mode: ActMode) -> Vec<f32> {
-        let plain = self.device.clone().without_autodiff();
-        let policy = self.model.policy.valid();
-        let obs_t = matrix(obs, self.obs_dim, &plain);
-        let (mean_t, log_std) = policy.distribution(obs_t);
+        let clip = |x: &[f32]| x.iter().map(|x| x.clamp(-1.0, 1.0)).collect();
         let n = obs.len() / self.obs_dim;
         let rng = match mode {
-            ActMode::Deterministic => return host(mean_t.clamp(-1.0, 1.0)),
+            ActMode::Deterministic => {
+                return clip(&match &mut self.networks {
+                    OnPath::Burn(burn) => burn.means(obs),
+                    OnPath::Host(host) => host.means(obs),
+                });
+            }
             ActMode::Sample => &mut self.sample_rng,
             ActMode::Explore => &mut self.rng,
         };
-        let noise = matrix(
-            &standard_normal(n, self.action_dim, rng),
-            self.action_dim,
-            &plain,
-        );
-        let raw = mean_t.clone() + log_std.clone().exp() * noise;
-        if mode == ActMode::Sample {
-            return host(raw.clamp(-1.0, 1.0));
+        let noise = standard_normal(n, self.action_dim, rng);
+        let (actions, log_probs) = match &mut self.networks {
+            OnPath::Burn(burn) => burn.sample(obs, &noise),
+            OnPath::Host(host) => host.sample(obs, &noise),
+        };
+        let clipped = clip(&actions);
+        if mode == ActMode::Explore {
+            self.pending = Some(Pending {
+                actions,
+                values: self.values(obs),
+                log_probs,
+            });
         }
-        let log_probs = host(diag_gaussian_log_prob(mean_t, log_std, raw.clone()));
-        let actions = host(raw);
-        let clipped = actions.iter().map(|x| x.clamp(-1.0, 1.0)).collect();
-        self.pending = Some(Pending {
-            actions,
-            values: self.values(obs),
-            log_probs,
-        });
         clipped
     }
 
@@ -465,26 +498,33 @@ impl Agent for Ppo {
     }
 
     fn gradient_steps(&self) -> u64 {
-        self.optim.steps()
+        self.optimiser().steps()
     }
 
     fn save(&self, dir: &Path) -> Result<(), AgentError> {
-        save_module(&self.model, &dir.join("actor_critic.bpk"))?;
+        save_module(&self.model(), &dir.join("actor_critic.bpk"))?;
         Ok(())
     }
 
     fn load(&mut self, dir: &Path) -> Result<(), AgentError> {
-        self.model = load_module(self.model.clone(), &dir.join("actor_critic.bpk"))?;
-        Ok(())
+        let model = load_module(self.model(), &dir.join("actor_critic.bpk"))?;
+        self.networks
+            .set_modules(model)
+            .map_err(|message| AgentError::File {
+                path: dir.to_path_buf(),
+                message,
+            })
     }
 
     fn zero_obs_inputs(&mut self, inputs: &[usize]) -> Result<(), String> {
-        self.model.policy.zero_obs_inputs(inputs)?;
-        self.model.value.zero_obs_inputs(inputs)
+        let mut model = self.model();
+        model.policy.zero_obs_inputs(inputs)?;
+        model.value.zero_obs_inputs(inputs)?;
+        self.networks.set_modules(model)
     }
 
     fn save_state<'a>(&'a self, snap: &mut Snapshot<'a>) {
-        self.optim.save_state(snap, "ppo.adam");
+        self.optimiser().save_state(snap, "ppo.adam");
         snap.put_rng("agent.rng", &self.rng);
         snap.put_u64("agent.env_steps", self.env_steps);
         self.rollout.save_state(snap, "rollout");
@@ -494,7 +534,12 @@ impl Agent for Ppo {
     }
 
     fn load_state(&mut self, snap: &Snapshot<'_>) -> Result<(), SnapshotError> {
-        self.optim.load_state(snap, "ppo.adam", &self.device)?;
+        let device = self.device.clone();
+        match &mut self.networks {
+            OnPath::Burn(burn) => burn.optimiser_mut(),
+            OnPath::Host(host) => host.optimiser_mut(),
+        }
+        .load_state(snap, "ppo.adam", &device)?;
         self.rng = snap.rng("agent.rng")?;
         self.env_steps = snap.u64("agent.env_steps")?;
         self.rollout.load_state(snap, "rollout")?;
@@ -503,5 +548,228 @@ impl Agent for Ppo {
         self.last_dones = snap.f32s("ppo.last_dones")?.to_vec();
         self.pending = None;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::network_path::HoldsModules;
+    use crate::tensors::{host, matrix, vector};
+    use crate::test_support::{change_gap, device, gradient_revealing};
+    use burn::module::Module;
+    use foosball_nets::distributions::diag_gaussian_log_prob;
+    use foosball_nets::params::host_params;
+
+    /// Every parameter of both networks.
+    fn flat(m: &ActorCritic) -> Vec<f32> {
+        host_params(m).concat()
+    }
+
+    /// A minibatch of `n` rows for `(o, a)` networks: old log-probabilities that put
+    /// ratios on both sides of the clip range, advantages of both signs.
+    fn minibatch(n: usize, (o, a): (usize, usize), seed: u64) -> Minibatch {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut normal = |k: usize| standard_normal(k, 1, &mut rng);
+        Minibatch {
+            obs: normal(n * o).iter().map(|x| x.tanh()).collect(),
+            actions: normal(n * a).iter().map(|x| 0.5 * x).collect(),
+            advantages: normalize_advantages(&normal(n)),
+            old_log_probs: normal(n).iter().map(|x| 0.3 * x - 1.0 * a as f32).collect(),
+            returns: normal(n).iter().map(|x| 2.0 * x).collect(),
+        }
+    }
+
+    /// One minibatch step of PPO's loss written as Stable-Baselines3 writes it, gradients
+    /// by Burn's autodiff through the whole loss (the way this file computed its update
+    /// before it was written over [`PpoNetworks`]), on `m` with `c`'s Adam.
+    fn reference_step(
+        mut m: ActorCritic,
+        c: &PpoConfig,
+        (o, a): (usize, usize),
+        mb: &Minibatch,
+    ) -> ActorCritic {
+        let dev = device();
+        let obs = matrix(&mb.obs, o, &dev);
+        let (log_prob, entropy) = m.policy.evaluate(obs.clone(), matrix(&mb.actions, a, &dev));
+        let values = m.value.forward(obs);
+        let ratio = (log_prob - vector(&mb.old_log_probs, &dev)).exp();
+        let adv = vector(&mb.advantages, &dev);
+        let clipped = adv.clone() * ratio.clone().clamp(1.0 - c.clip_range, 1.0 + c.clip_range);
+        let policy_loss = (adv * ratio).min_pair(clipped).mean().neg();
+        let value_loss = (vector(&mb.returns, &dev) - values).square().mean();
+        let loss = policy_loss
+            + entropy.mean().neg().mul_scalar(c.ent_coef)
+            + value_loss.mul_scalar(c.vf_coef);
+        let mut adam = Adam::new(c.net.adam.clone());
+        adam.step_in_place(&mut m, &mut loss.backward(), 10.0);
+        m
+    }
+
+    fn check_against_autodiff(mut c: PpoConfig, (o, a): (usize, usize), hidden: Vec<usize>) {
+        gradient_revealing(&mut c.net);
+        c.net.hidden = hidden;
+        c.ent_coef = 0.01;
+        let mb = minibatch(64, (o, a), 9);
+        let start = Ppo::new(o, a, c.clone(), 3, &device()).model();
+        let expected = flat(&reference_step(start.clone(), &c, (o, a), &mb));
+        let adam = || Adam::new(c.net.adam.clone());
+        let mut burn = BurnNetworks::new(start.clone(), adam(), &device(), o);
+        let mut host = HostNetworks::from_modules(start.clone(), adam()).unwrap();
+        let mb_burn = minibatch_step(&mut burn, &c, (o, a), &mb, 10.0).unwrap();
+        let mb_host = minibatch_step(&mut host, &c, (o, a), &mb, 10.0).unwrap();
+        for (label, after) in [("burn", burn.modules()), ("host", host.modules())] {
+            let gap = change_gap(&flat(&start), &flat(&after), &expected);
+            assert!(gap < 1e-4, "{label}: {gap} of the step's size");
+        }
+        for ((name, b), (_, h)) in mb_burn.0.into_iter().zip(mb_host.0) {
+            let (b, h) = (b.read(), h.read());
+            assert!(
+                (b - h).abs() <= 1e-4 * b.abs().max(1.0),
+                "{name} {b} vs {h}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_minibatch_step_is_the_gradient_of_ppos_loss_on_both_paths() {
+        check_against_autodiff(PpoConfig::default(), (38, 8), vec![64, 64]);
+        check_against_autodiff(PpoConfig::default(), (38, 8), vec![256, 256]);
+        let mut relu = PpoConfig::default();
+        relu.net.activation = Activation::Relu;
+        relu.net.adam.max_grad_norm = None;
+        relu.clip_range = 0.1;
+        check_against_autodiff(relu, (5, 3), vec![16]);
+    }
+
+    #[test]
+    fn the_surrogates_gradient_passes_where_the_clip_is_not_taken() {
+        let r = crate::rows::HostRows;
+        // Ratios 0.5, 1.1, 1.5, 1.5 with advantages 1, 1, 1, -1 (clip 0.2): the first row
+        // takes its unclipped term, the second is inside the range, the third is clipped
+        // (no gradient), the fourth takes its unclipped term.
+        let log_prob: Vec<f32> = [0.5f32, 1.1, 1.5, 1.5].iter().map(|x| x.ln()).collect();
+        let s = clipped_surrogate(
+            &r,
+            (&log_prob, &vec![0.0; 4]),
+            &vec![1.0, 1.0, 1.0, -1.0],
+            0.2,
+            4,
+        );
+        let want = [-0.5 / 4.0, -1.1 / 4.0, 0.0, 1.5 / 4.0];
+        for (g, w) in s.d_log_prob.iter().zip(want) {
+            assert!((g - w).abs() < 1e-6, "{:?}", s.d_log_prob);
+        }
+        assert_eq!(s.clip_fraction, vec![0.75]);
+        // Burn's autodiff of the same loss.
+        let dev = device();
+        let lp = vector(&log_prob, &dev).require_grad();
+        let ratio = lp.clone().exp();
+        let adv = vector(&[1.0, 1.0, 1.0, -1.0], &dev);
+        let loss = (adv.clone() * ratio.clone())
+            .min_pair(adv * ratio.clamp(0.8, 1.2))
+            .mean()
+            .neg();
+        let grads = loss.backward();
+        let got = host(lp.grad(&grads).unwrap());
+        for (g, w) in got.iter().zip(want) {
+            assert!((g - w).abs() < 1e-6, "{got:?}");
+        }
+    }
+
+    /// A 3 -> 2 PPO learner (2 envs, 16-step rollouts, minibatches of 8) driven through
+    /// `rounds` rollouts on made-up observations and rewards.
+    fn driven(host_path: bool, rounds: usize) -> Ppo {
+        let c = PpoConfig {
+            n_steps: 16,
+            batch_size: 8,
+            n_epochs: 2,
+            ..PpoConfig::default()
+        };
+        let mut ppo = Ppo::new(3, 2, c, 7, &device());
+        if host_path {
+            ppo.on_host_path().unwrap();
+        }
+        let mut k = 0;
+        for _ in 0..rounds {
+            loop {
+                let obs: Vec<f32> = (0..6).map(|i| ((k * 6 + i) as f32 * 0.37).sin()).collect();
+                let next: Vec<f32> = obs.iter().map(|x| x * 0.9).collect();
+                let actions = ppo.act(&obs, ActMode::Explore);
+                let rewards: Vec<f32> = actions.chunks(2).map(|a| -a[0] * a[0] + a[1]).collect();
+                let done = k % 11 == 10;
+                ppo.observe(&Experience {
+                    obs: &obs,
+                    actions: &actions,
+                    rewards: &rewards,
+                    next_obs: &next,
+                    final_obs: vec![None, None],
+                    terminated: &[done, false],
+                    truncated: &[false, false],
+                    absorbing: vec![false, false],
+                });
+                k += 1;
+                if ppo.update(1.0).is_some() {
+                    break;
+                }
+            }
+        }
+        ppo
+    }
+
+    #[test]
+    fn the_host_path_follows_the_burn_path_over_rollouts_and_through_files() {
+        let (burn, host) = (driven(false, 4), driven(true, 4));
+        let start = flat(&driven(false, 0).model());
+        let (pb, ph) = (flat(&burn.model()), flat(&host.model()));
+        assert!(change_gap(&start, &pb, &ph) < 1e-3);
+        assert_eq!(burn.gradient_steps(), host.gradient_steps());
+        // Files: the host learner's networks load into either path.
+        let dir = std::env::temp_dir().join(format!("ppo-host-files-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        host.save(&dir).unwrap();
+        for host_path in [false, true] {
+            let mut loaded = driven(host_path, 0);
+            loaded.load(&dir).unwrap();
+            assert_eq!(flat(&loaded.model()), ph);
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
+        // Acting: the same means from the same networks.
+        let obs = [0.1, -0.4, 0.7];
+        let (mut burn, mut host) = (burn, host);
+        let (ab, ah) = (
+            burn.act(&obs, ActMode::Deterministic),
+            host.act(&obs, ActMode::Deterministic),
+        );
+        assert!(
+            ab.iter().zip(&ah).all(|(x, y)| (x - y).abs() < 1e-4),
+            "{ab:?} {ah:?}"
+        );
+        // The log-density of a sample as the Burn distribution computes it.
+        let noise = [0.3, -1.2];
+        let (raw, lp) = HostNetworks::from_modules(host.model(), Adam::new(AdamConfig::default()))
+            .unwrap()
+            .sample(&obs, &noise);
+        let dev = device().without_autodiff();
+        let (mean, log_std) = host
+            .model()
+            .policy
+            .valid()
+            .distribution(matrix(&obs, 3, &dev));
+        let want =
+            crate::tensors::host(diag_gaussian_log_prob(mean, log_std, matrix(&raw, 2, &dev)));
+        assert!((lp[0] - want[0]).abs() < 1e-4, "{lp:?} {want:?}");
+    }
+
+    #[test]
+    fn the_host_path_refuses_images() {
+        let image = ObsShape::Image {
+            channels: 3,
+            height: 36,
+            width: 36,
+        };
+        let mut ppo = Ppo::new(image, 2, PpoConfig::default(), 1, &device());
+        let err = ppo.on_host_path().unwrap_err();
+        assert!(err.contains("image"), "{err}");
     }
 }

@@ -35,6 +35,8 @@ pub trait Rows {
     fn min(&self, a: &Self::V, b: &Self::V) -> Self::V;
     /// `max(a, floor)`.
     fn max_scalar(&self, a: &Self::V, floor: f32) -> Self::V;
+    /// `clamp(a, lo, hi)`.
+    fn clamp(&self, a: &Self::V, lo: f32, hi: f32) -> Self::V;
     /// 1 where `a <= b`, else 0.
     fn le(&self, a: &Self::V, b: &Self::V) -> Self::V;
     /// `|a|`.
@@ -103,6 +105,9 @@ impl Rows for DeviceRows {
     }
     fn max_scalar(&self, a: &Tensor<1>, floor: f32) -> Tensor<1> {
         a.clone().clamp_min(floor)
+    }
+    fn clamp(&self, a: &Tensor<1>, lo: f32, hi: f32) -> Tensor<1> {
+        a.clone().clamp(lo, hi)
     }
     fn le(&self, a: &Tensor<1>, b: &Tensor<1>) -> Tensor<1> {
         a.clone().lower_equal(b.clone()).float()
@@ -206,6 +211,9 @@ impl Rows for HostRows {
     fn max_scalar(&self, a: &Vec<f32>, floor: f32) -> Vec<f32> {
         map(a, |a| a.max(floor))
     }
+    fn clamp(&self, a: &Vec<f32>, lo: f32, hi: f32) -> Vec<f32> {
+        map(a, |a| a.clamp(lo, hi))
+    }
     fn le(&self, a: &Vec<f32>, b: &Vec<f32>) -> Vec<f32> {
         zip(a, b, |a, b| f32::from(u8::from(a <= b)))
     }
@@ -295,6 +303,7 @@ mod tests {
         check(h.affine(&ha, -2.0, 0.5), d.affine(&da, -2.0, 0.5));
         check(h.min(&ha, &hb), d.min(&da, &db));
         check(h.max_scalar(&ha, 0.1), d.max_scalar(&da, 0.1));
+        check(h.clamp(&ha, -1.0, 1.0), d.clamp(&da, -1.0, 1.0));
         check(h.le(&ha, &hb), d.le(&da, &db));
         check(h.abs(&ha), d.abs(&da));
         check(h.square(&ha), d.square(&da));

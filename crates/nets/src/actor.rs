@@ -5,13 +5,14 @@ use crate::distributions::{
     LOG_STD_MAX, LOG_STD_MIN, diag_gaussian_entropy, diag_gaussian_log_prob,
     squashed_gaussian_log_prob,
 };
-use crate::host_actor::{HostDeterministic, HostSquashedGaussian};
+use crate::host_actor::{HostDeterministic, HostGaussianPolicy, HostSquashedGaussian};
 use crate::host_mlp::HostMlp;
 use crate::init::NetInit;
 use crate::mlp::Mlp;
+use crate::params::{host_params, map_flat_params};
 use burn::module::{Module, Param};
-use burn::tensor::Tensor;
 use burn::tensor::activation::tanh;
+use burn::tensor::{Tensor, TensorData};
 use rand::Rng;
 
 /// SAC's actor: an MLP (behind its own encoder, see [`crate::cnn`]) whose output layer
@@ -160,6 +161,24 @@ impl GaussianPolicy {
         let mean = self.net.forward(self.encoder.forward(obs));
         let log_std = self.log_std.val().unsqueeze::<2>().expand(mean.dims());
         (mean, log_std)
+    }
+
+    /// A copy on the host MLP path; an error for an image observation or layer
+    /// normalisation, which that path does not compute.
+    pub fn to_host(&self) -> Result<HostGaussianPolicy, String> {
+        self.encoder.per_value_inputs()?;
+        let log_std = host_params(&self.log_std).concat();
+        HostGaussianPolicy::new(HostMlp::from_mlp(&self.net)?, log_std)
+    }
+
+    /// This policy with `host`'s parameters (same widths).
+    pub fn with_host_params(mut self, host: &HostGaussianPolicy) -> Result<Self, String> {
+        self.net = host.mlp.write_to(self.net)?;
+        let n = host.log_std.len();
+        self.log_std = map_flat_params(self.log_std, |_, p| {
+            Tensor::from_data(TensorData::new(host.log_std.clone(), [n]), &p.device())
+        });
+        Ok(self)
     }
 
     /// `(log pi(actions|obs), entropy)`, each `[batch]`.

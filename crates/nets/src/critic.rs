@@ -135,4 +135,17 @@ impl ValueCritic {
     pub fn forward(&self, obs: Tensor<2>) -> Tensor<1> {
         self.net.forward(self.encoder.forward(obs)).squeeze_dim(1)
     }
+
+    /// Its MLP on the host path; an error for an image observation or layer
+    /// normalisation, which that path does not compute.
+    pub fn to_host(&self) -> Result<HostMlp, String> {
+        self.encoder.per_value_inputs()?;
+        HostMlp::from_mlp(&self.net)
+    }
+
+    /// This critic with `host`'s parameters (same widths).
+    pub fn with_host_params(mut self, host: &HostMlp) -> Result<Self, String> {
+        self.net = host.write_to(self.net)?;
+        Ok(self)
+    }
 }

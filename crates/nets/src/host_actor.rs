@@ -1,8 +1,9 @@
 //! The actors on the host MLP path ([`crate::host_mlp`]), with their output's backward
 //! pass written out: SAC's squashed Gaussian ([`HostSquashedGaussian`], the network and
-//! distribution of [`crate::SquashedGaussianActor`]) and TD3's deterministic tanh actor
+//! distribution of [`crate::SquashedGaussianActor`]), TD3's deterministic tanh actor
 //! ([`HostDeterministic`], [`crate::DeterministicActor`]'s: `a = tanh(mlp(obs))`,
-//! backward `dz = da (1 - a^2)`).
+//! backward `dz = da (1 - a^2)`) and PPO's Gaussian ([`HostGaussianPolicy`],
+//! [`crate::GaussianPolicy`]'s).
 //!
 //! The squashed Gaussian's forward, per row (`A` actions): `z = mlp(obs) [2A]`, `mean = z[..A]`,
 //! `log_std = clamp(z[A..], LOG_STD_MIN, LOG_STD_MAX)`, `u = mean + exp(log_std) * noise`,
@@ -231,5 +232,99 @@ impl HostDeterministic {
             .map(|(d, a)| d * (1.0 - a * a))
             .collect();
         self.mlp.backward(&mut self.tape, &dz, Some(grads), None);
+    }
+}
+
+/// PPO's Gaussian policy: `mean = mlp(obs)` `[batch, action_dim]` and a state-independent
+/// `log_std` `[action_dim]` ([`crate::GaussianPolicy`]'s), with its latest evaluation kept.
+///
+/// Per row, with `z_j = (a_j - mean_j) / std_j`: `log pi = sum_j (-0.5 z_j^2 - log_std_j -
+/// 0.5 ln 2 pi)`, `entropy = sum_j (0.5 + 0.5 ln 2 pi + log_std_j)`. Backward, given
+/// `dlp = dL/d log pi` and `dent = dL/d entropy` `[batch]`: `dmean_j = dlp z_j / std_j`,
+/// `dlog_std_j = sum over rows of (dlp (z_j^2 - 1) + dent)`.
+#[derive(Clone, Debug)]
+pub struct HostGaussianPolicy {
+    /// `obs [batch, obs_dim] -> mean [batch, action_dim]`.
+    pub mlp: HostMlp,
+    /// `[action_dim]`.
+    pub log_std: Vec<f32>,
+    /// The latest [`HostGaussianPolicy::evaluate`]'s forward pass and its `z`.
+    tape: MlpTape,
+    z: Vec<f32>,
+    /// The passes of what is not walked back (acting).
+    scratch: MlpTape,
+}
+
+impl HostGaussianPolicy {
+    /// The policy computing with `mlp` and `log_std` (one per action).
+    pub fn new(mlp: HostMlp, log_std: Vec<f32>) -> Result<Self, String> {
+        if log_std.len() != mlp.output_dim() {
+            return Err(format!(
+                "a log std per action: {} for {} actions",
+                log_std.len(),
+                mlp.output_dim()
+            ));
+        }
+        Ok(Self {
+            mlp,
+            log_std,
+            tape: MlpTape::default(),
+            z: Vec::new(),
+            scratch: MlpTape::default(),
+        })
+    }
+
+    /// `(log pi(actions | obs), entropy)`, `[batch]` each, for `obs [batch, obs_dim]` and
+    /// `actions [batch, action_dim]`, kept for [`HostGaussianPolicy::backward`].
+    pub fn evaluate(&mut self, obs: &[f32], actions: &[f32]) -> (Vec<f32>, Vec<f32>) {
+        let a = self.log_std.len();
+        let mean = self.mlp.forward(obs, &mut self.tape);
+        assert_eq!(actions.len(), mean.len(), "actions [batch, action_dim]");
+        let std: Vec<f32> = self.log_std.iter().map(|l| l.exp()).collect();
+        let entropy_row: f32 = self.log_std.iter().map(|l| l + 0.5 + HALF_LN_2PI).sum();
+        self.z.clear();
+        let mut log_prob = Vec::with_capacity(mean.len() / a);
+        for (m, x) in mean.chunks_exact(a).zip(actions.chunks_exact(a)) {
+            let mut lp = 0.0;
+            for j in 0..a {
+                let z = (x[j] - m[j]) / std[j];
+                lp += (-0.5 * z * z - self.log_std[j]) - HALF_LN_2PI;
+                self.z.push(z);
+            }
+            log_prob.push(lp);
+        }
+        let entropy = vec![entropy_row; log_prob.len()];
+        (log_prob, entropy)
+    }
+
+    /// The means `[batch, action_dim]` for `obs` (not kept).
+    pub fn mean(&mut self, obs: &[f32]) -> Vec<f32> {
+        self.mlp.forward(obs, &mut self.scratch).to_vec()
+    }
+
+    /// Adds `dL/dparams` of the latest evaluation to `grads` (the MLP's layout) and
+    /// `dL/dlog_std` to `log_std_grads`, given `d_log_prob` and `d_entropy` `[batch]`.
+    pub fn backward(
+        &mut self,
+        d_log_prob: &[f32],
+        d_entropy: &[f32],
+        grads: &mut [f32],
+        log_std_grads: &mut [f32],
+    ) {
+        let a = self.log_std.len();
+        let batch = self.tape.batch();
+        assert_eq!(d_log_prob.len(), batch, "d_log_prob [batch]");
+        assert_eq!(d_entropy.len(), batch, "d_entropy [batch]");
+        let std: Vec<f32> = self.log_std.iter().map(|l| l.exp()).collect();
+        let mut d_mean = vec![0.0; batch * a];
+        for i in 0..batch {
+            for j in 0..a {
+                let z = self.z[i * a + j];
+                d_mean[i * a + j] = d_log_prob[i] * z / std[j];
+                log_std_grads[j] += d_log_prob[i] * (z * z - 1.0) + d_entropy[i];
+            }
+        }
+        self.mlp
+            .backward(&mut self.tape, &d_mean, Some(grads), None);
     }
 }

@@ -1,6 +1,6 @@
 //! Burn networks for foosball-rl: the MLP, the image encoder (NatureCNN) and the
 //! actor/critic heads of PPO, SAC and TD3, the MLP on host memory with its backward pass
-//! written out (the small-network path, [`host_mlp`], with SAC's and TD3's actors and the twin
+//! written out (the small-network path, [`host_mlp`], with the three actors, the twin
 //! critics on it: [`host_actor`], [`host_critic`]),
 //! the action distributions, parameter-wise utilities (polyak averaging, flat and
 //! own-rank views), Adam with PyTorch's epsilon and global-norm gradient clipping
@@ -38,7 +38,7 @@ pub use burn;
 pub use burn::tensor::{Device, Tensor, TensorData};
 pub use cnn::{CnnConfig, ConvLayer, Encoder, ObsShape};
 pub use critic::{QNetwork, TwinQ, ValueCritic};
-pub use host_actor::{HostDeterministic, HostSquashedGaussian};
+pub use host_actor::{HostDeterministic, HostGaussianPolicy, HostSquashedGaussian};
 pub use host_critic::HostTwinQ;
 pub use host_mlp::{HostMlp, MlpTape};
 pub use init::NetInit;
