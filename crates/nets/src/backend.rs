@@ -21,8 +21,9 @@ pub enum Backend {
     /// CUDA GPUs (feature `cuda`).
     Cuda,
     /// The host MLP path ([`crate::host_mlp`]): small networks in host memory with their
-    /// backward passes written out, on one thread; vector observations, SAC so far. Its
-    /// device is the default CPU backend's, where the networks are made, saved and read.
+    /// backward passes written out, on one thread; vector observations (PPO, SAC and
+    /// TD3). Its device is the default CPU backend's, where the networks are made, saved
+    /// and read.
     Host,
 }
 
