@@ -12,12 +12,13 @@ use std::path::Path;
 const VALIDATED: &str = "RunConfig::validate admits only what the host path computes";
 
 /// The agent `config` asks for, its networks drawn from the learner stream; its input is
-/// the observation `config.env` gives (38 state values, or an image through a CNN). With
-/// `backend = "host"` the same networks compute on the host MLP path (a validated config).
+/// the observation `config.env` gives (38 state values, or an image through a CNN). Where
+/// [`RunConfig::computes_on_host`] the same networks compute on the host MLP path (a
+/// validated config).
 pub fn build_agent(config: &RunConfig, device: &Device) -> Box<dyn Agent + Send> {
     let seed = derive_seed(config.protocol.seed, LEARNER, 0);
     let (o, a) = (obs_shape(&config.env.observation), layout::ACTION_DIM);
-    let on_host = config.protocol.backend == Some(Backend::Host);
+    let on_host = config.computes_on_host();
     match &config.algorithm {
         AlgoConfig::Ppo(c) => {
             let mut agent = Ppo::new(o, a, c.clone(), seed, device);

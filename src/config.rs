@@ -10,6 +10,12 @@ use std::borrow::Cow;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+/// The widest hidden layer `backend = "auto"` puts on the host MLP path, in units. On one
+/// thread that path's updates measured 1.6-2.9x flex's at 64x64 and about even at
+/// 256x256 (0.8-1.5x over PPO, SAC and TD3, docs/table.md); wider layers, where flex's
+/// threaded matrix products pay, stay on the default CPU backend.
+pub const AUTO_HOST_WIDTH: usize = 256;
+
 /// Which algorithm a run trains.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
@@ -714,20 +720,43 @@ impl RunConfig {
     /// What `backend = "host"` computes: the learners' MLPs on vector observations,
     /// without layer normalisation (SAC's and TD3's critics).
     fn check_host_path(&self) -> Result<(), ConfigError> {
-        let why = if self.env.observation.kind == ObservationKind::Image {
-            "computes vector observations only: use flex or a GPU backend for images".to_string()
+        match self.host_path_refusal() {
+            None => Ok(()),
+            Some(why) => Err(ConfigError::new(
+                "protocol.backend",
+                format!("`host` {why}"),
+            )),
+        }
+    }
+
+    /// Why the host path cannot compute this run's networks, if it cannot.
+    fn host_path_refusal(&self) -> Option<String> {
+        if self.env.observation.kind == ObservationKind::Image {
+            Some("computes vector observations only: use flex or a GPU backend for images".into())
         } else if self.algo() != Algo::Ppo && self.algorithm.net().critic_layer_norm {
-            format!(
+            Some(format!(
                 "does not compute layer normalisation: set {}.net.critic_layer_norm = false or use flex",
                 self.algo()
-            )
+            ))
         } else {
-            return Ok(());
-        };
-        Err(ConfigError::new(
-            "protocol.backend",
-            format!("`host` {why}"),
-        ))
+            None
+        }
+    }
+
+    /// Whether the networks compute on the host MLP path: `backend = "host"`, or
+    /// `"auto"` where that path computes them and no hidden layer is wider than
+    /// [`AUTO_HOST_WIDTH`] (the widths at which it was measured faster than flex on one
+    /// thread: docs/table.md). The rule is part of what an `auto` run's configuration
+    /// means: a run replays only under the rule it was trained with.
+    pub fn computes_on_host(&self) -> bool {
+        match self.protocol.backend {
+            Some(Backend::Host) => true,
+            Some(Backend::Auto) => {
+                self.host_path_refusal().is_none()
+                    && self.hidden().iter().all(|&w| w <= AUTO_HOST_WIDTH)
+            }
+            _ => false,
+        }
     }
 
     /// The algorithm to train.

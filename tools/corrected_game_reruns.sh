@@ -12,11 +12,21 @@
 #
 # BIN=DIR takes the binaries from DIR: the runs begun with one build must be resumed with
 # the same code, or their later epochs compute on other rounding (Figure 2 v3 began on
-# 0e584fd's; SAC's update was rewritten after it, the same math, not the same bits).
+# 0e584fd's; SAC's update was rewritten after it, the same math, not the same bits), and
+# the configs of CONFIGS_REV (default 0e584fd), extracted into runs/configs-<rev>.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 mkdir -p runs/logs
 bin=${BIN:-target/release}
+# The sweep plans from `configs/<algo>.toml`; binaries of another build read that build's
+# files (0e584fd's, for Figure 2 v3's: they predate `backend = "auto"`).
+configs=configs
+if [ -n "${BIN:-}" ]; then
+    configs=runs/configs-${CONFIGS_REV:-0e584fd}
+    if [ ! -d "$configs" ]; then
+        mkdir -p "$configs" && git archive "${CONFIGS_REV:-0e584fd}" configs | tar -x -C "$configs" --strip-components=1
+    fi
+fi
 log=runs/logs/queue.log
 echo "$(date -u +%FT%TZ) queue start" >> "$log"
 
@@ -28,7 +38,7 @@ fi
 echo "$(date -u +%FT%TZ) planner done rc=$?" >> "$log"
 
 # 1. Figure 2: PPO, SAC, TD3 x 5 seeds, 64x64, the whole protocol, with the baselines.
-$bin/sweep --algos ppo,sac,td3 --seeds 0..5 --hidden 64,64 --jobs 2 \
+$bin/sweep --algos ppo,sac,td3 --seeds 0..5 --hidden 64,64 --jobs 2 --configs "$configs" \
     --out results/figure2-v3 >> runs/logs/figure2-v3.log 2>&1
 echo "$(date -u +%FT%TZ) figure2-v3 done rc=$?" >> "$log"
 # Its report again with the planner beside the learners and the baselines.
@@ -51,7 +61,7 @@ recipe() {
     if [ -d "$out/checkpoint" ]; then
         $bin/train --resume "$out" --threads 1 >> runs/logs/recipe-seed$s.log 2>&1
     else
-        $bin/train --config configs/sac-recipe.toml --seed "$s" --threads 1 --out "$out" \
+        $bin/train --config "$configs/sac-recipe.toml" --seed "$s" --threads 1 --out "$out" \
             >> runs/logs/recipe-seed$s.log 2>&1
     fi
     echo "$(date -u +%FT%TZ) recipe seed $s done rc=$?" >> "$log"

@@ -190,3 +190,38 @@ fn earlier_files_with_gamma_under_off_policy_still_read() {
     let e = error("algo = \"sac\"\n[sac]\ngamma = 0.9\n[sac.off_policy]\ngamma = 0.9\n");
     assert!(e.contains("bad.toml:5") && e.contains("gamma"), "{e}");
 }
+
+/// `backend = "auto"` (the shipped algorithm files'): the host path for networks it
+/// computes up to `AUTO_HOST_WIDTH` wide, the default CPU backend for the paper's 7 x 3000
+/// networks, images and the critics' layer normalisation.
+#[test]
+fn auto_puts_small_vector_networks_on_the_host_path() {
+    use foosball_rl::config::{AUTO_HOST_WIDTH, Overrides};
+    for algo in [Algo::Ppo, Algo::Sac, Algo::Td3] {
+        let path = config_path(algo);
+        let paper = RunConfig::load(&path).unwrap();
+        assert_eq!(paper.protocol.backend.map(|b| b.name()), Some("auto"));
+        assert!(!paper.computes_on_host(), "{algo}: 7 x 3000 stays on flex");
+        let small = |widths: Vec<usize>| {
+            let o = Overrides {
+                hidden: Some(widths),
+                ..Overrides::default()
+            };
+            RunConfig::load_with(&path, Some(algo), &o).unwrap()
+        };
+        assert!(small(vec![64, 64]).computes_on_host(), "{algo}");
+        assert!(small(vec![AUTO_HOST_WIDTH; 2]).computes_on_host(), "{algo}");
+        assert!(
+            !small(vec![AUTO_HOST_WIDTH + 1, 64]).computes_on_host(),
+            "{algo}"
+        );
+        let mut image = small(vec![64, 64]);
+        image.env.observation.kind = foosball_rl::env::ObservationKind::Image;
+        assert!(!image.computes_on_host(), "{algo}");
+        if algo != Algo::Ppo {
+            let mut norm = small(vec![64, 64]);
+            norm.algorithm.net_mut().critic_layer_norm = true;
+            assert!(!norm.computes_on_host(), "{algo}");
+        }
+    }
+}

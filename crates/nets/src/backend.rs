@@ -25,13 +25,17 @@ pub enum Backend {
     /// TD3). Its device is the default CPU backend's, where the networks are made, saved
     /// and read.
     Host,
+    /// The host path where it computes the run's networks and they are small, the
+    /// default CPU backend otherwise: the run's configuration decides (the root
+    /// package's `RunConfig::computes_on_host`). Its device is the default CPU backend's.
+    Auto,
 }
 
 /// A backend that is unknown or not compiled into this binary.
 #[derive(Debug, thiserror::Error)]
 pub enum BackendError {
-    /// The name is not one of `flex`, `ndarray`, `wgpu`, `vulkan`, `cuda`, `host`.
-    #[error("unknown backend `{0}` (expected flex, ndarray, wgpu, vulkan, cuda or host)")]
+    /// The name is not one of `flex`, `ndarray`, `wgpu`, `vulkan`, `cuda`, `host`, `auto`.
+    #[error("unknown backend `{0}` (expected flex, ndarray, wgpu, vulkan, cuda, host or auto)")]
     Unknown(String),
     /// The backend exists but this binary was built without its cargo feature.
     #[error("backend `{0}` is not compiled in: rebuild with `--features {0}`")]
@@ -40,13 +44,14 @@ pub enum BackendError {
 
 impl Backend {
     /// All backends.
-    pub const ALL: [Backend; 6] = [
+    pub const ALL: [Backend; 7] = [
         Backend::Cuda,
         Backend::Vulkan,
         Backend::Wgpu,
         Backend::Flex,
         Backend::Ndarray,
         Backend::Host,
+        Backend::Auto,
     ];
 
     /// The backend's name, as in configs and on the command line.
@@ -58,6 +63,7 @@ impl Backend {
             Backend::Vulkan => "vulkan",
             Backend::Cuda => "cuda",
             Backend::Host => "host",
+            Backend::Auto => "auto",
         }
     }
 
@@ -69,7 +75,7 @@ impl Backend {
             Backend::Wgpu => cfg!(feature = "wgpu"),
             Backend::Vulkan => cfg!(feature = "vulkan"),
             Backend::Cuda => cfg!(feature = "cuda"),
-            Backend::Host => Backend::default_cpu().is_ok(),
+            Backend::Host | Backend::Auto => Backend::default_cpu().is_ok(),
         }
     }
 
@@ -96,7 +102,7 @@ impl Backend {
             Backend::Vulkan => Device::vulkan(Default::default()),
             #[cfg(feature = "cuda")]
             Backend::Cuda => Device::cuda(0),
-            Backend::Host => return Backend::default_cpu()?.device(),
+            Backend::Host | Backend::Auto => return Backend::default_cpu()?.device(),
             #[allow(unreachable_patterns)]
             other => return Err(BackendError::NotCompiled(other)),
         };
