@@ -284,6 +284,7 @@ impl PpoNetworks for HostNetworks {
         let a = self.policy.log_std.len();
         let mut log_probs = Vec::with_capacity(mean.len() / a);
         let mut raw = Vec::with_capacity(mean.len());
+        // `(raw - mean) / std` is the noise itself: the log-density's Gaussian term.
         for (m, e) in mean.chunks_exact(a).zip(noise.chunks_exact(a)) {
             let mut lp = 0.0;
             for j in 0..a {
