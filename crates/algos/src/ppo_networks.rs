@@ -280,21 +280,7 @@ impl PpoNetworks for HostNetworks {
     }
 
     fn sample(&mut self, obs: &[f32], noise: &[f32]) -> (Vec<f32>, Vec<f32>) {
-        let mean = self.policy.mean(obs);
-        let a = self.policy.log_std.len();
-        let mut log_probs = Vec::with_capacity(mean.len() / a);
-        let mut raw = Vec::with_capacity(mean.len());
-        // `(raw - mean) / std` is the noise itself: the log-density's Gaussian term.
-        for (m, e) in mean.chunks_exact(a).zip(noise.chunks_exact(a)) {
-            let mut lp = 0.0;
-            for j in 0..a {
-                let log_std = self.policy.log_std[j];
-                raw.push(m[j] + log_std.exp() * e[j]);
-                lp += (-0.5 * e[j] * e[j] - log_std) - foosball_nets::distributions::HALF_LN_2PI;
-            }
-            log_probs.push(lp);
-        }
-        (raw, log_probs)
+        self.policy.sample(obs, noise)
     }
 
     fn values(&mut self, obs: &[f32]) -> Vec<f32> {

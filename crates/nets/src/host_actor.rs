@@ -71,7 +71,7 @@ fn squashed_sample(z: &[f32], noise: &[f32], a: usize, kept: &mut Kept) -> (Vec<
             let u = mean[j] + s * eps[j];
             let t = u.tanh();
             let gauss = (u - mean[j]) / s;
-            lp += (-0.5 * gauss * gauss - log_std) - HALF_LN_2PI;
+            lp += gaussian_term(gauss, log_std);
             lp -= (1.0 + TANH_EPSILON - t * t).ln();
             std.push(s);
             unclamped.push((LOG_STD_MIN..=LOG_STD_MAX).contains(&raw[j]));
@@ -80,6 +80,12 @@ fn squashed_sample(z: &[f32], noise: &[f32], a: usize, kept: &mut Kept) -> (Vec<
         log_prob.push(lp);
     }
     (squashed.clone(), log_prob)
+}
+
+/// One action's term of a diagonal Gaussian's log-density, `-0.5 z^2 - log_std - 0.5 ln 2 pi`
+/// with `z = (x - mean) / std`.
+fn gaussian_term(z: f32, log_std: f32) -> f32 {
+    (-0.5 * z * z - log_std) - HALF_LN_2PI
 }
 
 /// `tanh(mean)` of the first `rows` rows of network outputs `z [batch, 2a]`.
@@ -288,7 +294,7 @@ impl HostGaussianPolicy {
             let mut lp = 0.0;
             for j in 0..a {
                 let z = (x[j] - m[j]) / std[j];
-                lp += (-0.5 * z * z - self.log_std[j]) - HALF_LN_2PI;
+                lp += gaussian_term(z, self.log_std[j]);
                 self.z.push(z);
             }
             log_prob.push(lp);
@@ -300,6 +306,26 @@ impl HostGaussianPolicy {
     /// The means `[batch, action_dim]` for `obs` (not kept).
     pub fn mean(&mut self, obs: &[f32]) -> Vec<f32> {
         self.mlp.forward(obs, &mut self.scratch).to_vec()
+    }
+
+    /// Raw actions `mean + std * noise` `[batch, action_dim]` for `obs` and standard-normal
+    /// `noise`, and their log-densities `[batch]` (not kept; `(raw - mean) / std` is the
+    /// noise itself).
+    pub fn sample(&mut self, obs: &[f32], noise: &[f32]) -> (Vec<f32>, Vec<f32>) {
+        let a = self.log_std.len();
+        let mean = self.mlp.forward(obs, &mut self.scratch);
+        assert_eq!(noise.len(), mean.len(), "noise [batch, action_dim]");
+        let mut raw = Vec::with_capacity(mean.len());
+        let mut log_probs = Vec::with_capacity(mean.len() / a);
+        for (m, e) in mean.chunks_exact(a).zip(noise.chunks_exact(a)) {
+            let mut lp = 0.0;
+            for j in 0..a {
+                raw.push(m[j] + self.log_std[j].exp() * e[j]);
+                lp += gaussian_term(e[j], self.log_std[j]);
+            }
+            log_probs.push(lp);
+        }
+        (raw, log_probs)
     }
 
     /// Adds `dL/dparams` of the latest evaluation to `grads` (the MLP's layout) and
