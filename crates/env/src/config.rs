@@ -31,6 +31,7 @@
 //! | `reward.conceded_penalty` (per step in own goal) | 1000 | 1000 | 0 | 0 | 1000 | 0 |
 //! | `start.y_mean` (cm, in `ball_frame`) | 0.0 | 0.0 | -0.1 | -0.1 | -4.0 | -0.1 |
 //! | `integrator` (how a physics step is taken) | mujoco_euler | rapier | rapier | rapier | rapier | rapier |
+//! | `man_contacts` (the ball's contacts with the men) | rapier | rapier | rapier | rapier | rapier | rapier |
 //! | `ball.friction` (of every ball contact) | 1.0 | 0.01 | 0.01 | 0.01 | 0.3 | 0.3 |
 //! | `rod_mount` | locked_axes | joint | joint | joint | joint | joint |
 //! | `ball.planar` (no vertical ball motion) | true | true | true | true | true | false |
@@ -184,6 +185,8 @@ pub struct FoosballConfig {
     pub rod_mount: RodMount,
     /// How a physics step is taken.
     pub integrator: Integrator,
+    /// How the ball's contacts with the men are made.
+    pub man_contacts: ManContacts,
     /// Who plays black.
     pub opponent: OpponentKind,
     /// Per-episode domain randomisation (off by default, as in the paper).
@@ -217,6 +220,7 @@ impl FoosballConfig {
             ball: BallConfig::default(),
             rod_mount: RodMount::default(),
             integrator: Integrator::Rapier,
+            man_contacts: ManContacts::Rapier,
             opponent: OpponentKind::Static,
             randomization: Randomization::default(),
             observation: ObservationConfig::default(),
@@ -719,6 +723,21 @@ pub enum Integrator {
     MujocoEuler,
 }
 
+/// How the ball's contacts with the men are made.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ManContacts {
+    /// Rapier's contacts: one hard contact per collider pair, with restitution
+    /// `ball.men_restitution` and friction `ball.friction`.
+    #[default]
+    Rapier,
+    /// MuJoCo's soft frictional contacts, as the reference model makes them
+    /// ([`crate::soft_contact::SoftContact::REFERENCE`]): critically damped at 4 ms, no
+    /// rebound, friction 1 in a pyramidal cone with torsion, solved with the step's other
+    /// forces. Needs `integrator = "mujoco_euler"`.
+    MujocoSoft,
+}
+
 /// Who controls black's rods.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -854,6 +873,15 @@ impl FoosballConfig {
                  rod_mount = \"locked_axes\" allows; got \"joint\"",
             ));
         }
+        if self.man_contacts == ManContacts::MujocoSoft
+            && self.integrator != Integrator::MujocoEuler
+        {
+            return Err(ConfigError::new(
+                "man_contacts",
+                "man_contacts = \"mujoco_soft\" adds its forces to MuJoCo's explicit Euler step, \
+                 which needs integrator = \"mujoco_euler\"; got \"rapier\"",
+            ));
+        }
         at_least_one("frame_skip", self.frame_skip)?;
         at_least_one("max_episode_steps", self.max_episode_steps)?;
         finite("reward.alpha", self.reward.alpha)?;
@@ -973,6 +1001,19 @@ mod tests {
         let mut c = FoosballConfig::default();
         c.rules.stagnant_steps = 0;
         assert_eq!(c.validate().unwrap_err().key, "rules.stagnant_steps");
+        let soft_on_rapier = FoosballConfig {
+            man_contacts: ManContacts::MujocoSoft,
+            ..FoosballConfig::preset(Preset::ReferenceV2)
+        };
+        let e = soft_on_rapier.validate().unwrap_err();
+        assert_eq!(e.key, "man_contacts");
+        assert!(e.to_string().contains("mujoco_euler"), "{e}");
+        FoosballConfig {
+            man_contacts: ManContacts::MujocoSoft,
+            ..FoosballConfig::default()
+        }
+        .validate()
+        .unwrap();
     }
 
     #[test]

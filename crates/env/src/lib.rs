@@ -10,6 +10,8 @@
 //!   [`observation`]: the state or stacked frames of it as what the agent sees.
 //! - [`scripted`]: hand-written shooter and dribbler, the yardsticks for learners;
 //!   [`roster`]: the built-in opponents by name; [`spin`]: spinning rods counted.
+//! - [`soft_contact`] and [`soft_stop`]: MuJoCo's soft constraints (the ball on the men,
+//!   the bumpers on the walls); [`servo`]: the rods' position servos.
 //! - [`config`]: the table's settings and presets, refused by key ([`config_error`]).
 //! - [`geometry`] and [`layout`]: the table's numbers and the observation/action index
 //!   table; [`seeding`]: how every random stream derives from one run seed.
@@ -31,6 +33,7 @@ pub mod roster;
 pub mod scripted;
 pub mod seeding;
 pub mod servo;
+pub mod soft_contact;
 pub mod soft_stop;
 pub mod spin;
 pub mod table;

@@ -28,6 +28,17 @@ impl SoftStop {
         impedance: 0.99,
     };
 
+    /// MuJoCo's reference acceleration along a constraint's normal, `-b v_n - k d r`, at
+    /// signed distance `dist` (negative inside) closing at `normal_vel` (its rate, positive
+    /// separating), for a step of `dt` seconds.
+    pub fn reference_acceleration(&self, dist: f32, normal_vel: f32, dt: f32) -> f32 {
+        let t = self.timeconst.max(2.0 * dt);
+        let d = self.impedance;
+        let b = 2.0 / (d * t);
+        let k = 1.0 / (d * d * t * t * self.dampratio * self.dampratio);
+        -b * normal_vel - k * d * dist
+    }
+
     /// The acceleration (units of `q` per s²) the stops at `[low, high]` add to a coordinate
     /// at `q` moving at `qdot` whose other forces accelerate it at `free_acc`, for a step
     /// of `dt` seconds; 0 between the stops.
@@ -47,12 +58,9 @@ impl SoftStop {
         } else {
             return 0.0;
         };
-        let t = self.timeconst.max(2.0 * dt);
-        let d = self.impedance;
-        let b = 2.0 / (d * t);
-        let k = 1.0 / (d * d * t * t * self.dampratio * self.dampratio);
         let free_n = normal * free_acc;
-        let reference = -b * normal * qdot - k * d * dist;
+        let reference = self.reference_acceleration(dist, normal * qdot, dt);
+        let d = self.impedance;
         if reference <= free_n {
             return 0.0; // the other forces already push it out
         }

@@ -13,9 +13,12 @@ use std::sync::OnceLock;
 
 use rapier3d::prelude::*;
 
-use crate::config::{BallModel, FoosballConfig, Integrator, MenShape, RodMount, SlideStops};
+use crate::config::{
+    BallModel, FoosballConfig, Integrator, ManContacts, MenShape, RodMount, SlideStops,
+};
 use crate::geometry::{self, NUM_RODS, RodSpec, Team, foosman};
 use crate::servo::Servo;
+use crate::soft_contact::{BallDofs, ManContact, RodDofs, SoftContact};
 use crate::soft_stop::SoftStop;
 
 const TABLE_GROUP: Group = Group::GROUP_1;
@@ -61,6 +64,8 @@ pub struct PhysicsParams {
     pub rod_mount: RodMount,
     /// How a physics step is taken.
     pub integrator: Integrator,
+    /// How the ball's contacts with the men are made.
+    pub man_contacts: ManContacts,
 }
 
 impl PhysicsParams {
@@ -82,6 +87,7 @@ impl PhysicsParams {
             ball_planar: config.ball.planar,
             rod_mount: config.rod_mount,
             integrator: config.integrator,
+            man_contacts: config.man_contacts,
         }
     }
 }
@@ -122,6 +128,9 @@ struct Rod {
     /// Under [`Integrator::MujocoEuler`] with bumpers: the slides at which the bumpers'
     /// soft contacts start, cm.
     soft_stops: Option<[f32; 2]>,
+    /// The men's colliders with their bounding spheres in the rod's frame (centre, radius;
+    /// cm), for [`ManContacts::MujocoSoft`]'s own contact search.
+    men: Vec<(ColliderHandle, Vector, f32)>,
 }
 
 /// The simulated table.
@@ -133,6 +142,9 @@ pub struct Table {
     targets: [[f32; 2]; NUM_RODS],
     ball_drag: BallDrag,
     integrator: Integrator,
+    /// Under [`ManContacts::MujocoSoft`], the ball-man contacts this table computes itself
+    /// (rapier's are then off).
+    soft_contact: Option<SoftContact>,
 }
 
 /// The floor's pull on the moving ball.
@@ -386,6 +398,16 @@ impl Table {
                                 .insert_with_parent(c, body, &mut world.bodies)
                         })
                         .collect();
+                // Every collider after the shaft is a man's.
+                let men = colliders[1..]
+                    .iter()
+                    .map(|&h| {
+                        let c = &world.colliders[h];
+                        let local = c.position_wrt_parent().copied().unwrap_or_default();
+                        let sphere = c.shape().compute_local_bounding_sphere();
+                        (h, local * sphere.center(), sphere.radius())
+                    })
+                    .collect();
                 let held = if locked {
                     JointAxesMask::empty()
                 } else {
@@ -458,11 +480,13 @@ impl Table {
                     },
                     angle: 0.0,
                     soft_stops,
+                    men,
                 }
             })
             .collect();
 
         let sliding = params.ball_model == BallModel::Reference;
+        let soft = params.man_contacts == ManContacts::MujocoSoft;
         let ball = world.insert_body(
             RigidBodyBuilder::dynamic()
                 .translation(Vector::new(ball_xy[0], ball_xy[1], geometry::BALL_RADIUS))
@@ -485,7 +509,14 @@ impl Table {
             .friction_combine_rule(CoefficientCombineRule::Max)
             .restitution(params.ball_restitution)
             .restitution_combine_rule(CoefficientCombineRule::Max)
-            .collision_groups(groups(BALL_GROUP, TABLE_GROUP | ROD_GROUP))
+            .collision_groups(groups(
+                BALL_GROUP,
+                if soft {
+                    TABLE_GROUP
+                } else {
+                    TABLE_GROUP | ROD_GROUP
+                },
+            ))
             .build();
         world
             .colliders
@@ -497,6 +528,7 @@ impl Table {
             rods,
             targets: [[0.0; 2]; NUM_RODS],
             integrator: params.integrator,
+            soft_contact: soft.then_some(SoftContact::REFERENCE),
             ball_drag: if sliding {
                 BallDrag::PerAxis(params.axis_deceleration)
             } else {
@@ -524,6 +556,7 @@ impl Table {
     pub fn step(&mut self) {
         let dt = self.world.integration_parameters.dt;
         let before: [RodState; NUM_RODS] = core::array::from_fn(|i| self.rod_state(i));
+        let mut rod_forces = [[0.0_f32; 2]; NUM_RODS];
         for (i, rod) in self.rods.iter().enumerate() {
             let s = before[i];
             let [slide_target, angle_target] = self.targets[i];
@@ -559,13 +592,22 @@ impl Table {
                 f += rod.slide_mass
                     * SoftStop::REFERENCE.acceleration(stops, s.slide, s.slide_vel, free, dt);
             }
+            rod_forces[i] = [f, t];
+        }
+        let mut ball_force = self.ball_drag(dt);
+        if let Some(law) = self.soft_contact {
+            self.add_contact_forces(&law, &before, &mut rod_forces, &mut ball_force, dt);
+        }
+        for (rod, [f, t]) in self.rods.iter().zip(rod_forces) {
             let body = &mut self.world.bodies[rod.body];
             body.reset_forces(false);
             body.reset_torques(false);
             body.add_force(rod.axis * f, false);
             body.add_torque(rod.axis * t, false);
         }
-        self.apply_ball_drag(dt);
+        let ball = &mut self.world.bodies[self.ball];
+        ball.reset_forces(false);
+        ball.add_force(ball_force, false);
         self.world.step();
         match self.integrator {
             Integrator::Rapier => {
@@ -599,14 +641,13 @@ impl Table {
         body.set_position(r.frame * local, false);
     }
 
-    /// The floor's drag on the ball for the coming step, as a force at its centre that
-    /// never reverses the velocity it opposes: a rolling ball slows at
+    /// The floor's drag on the ball for the coming step (kg cm/s²), as a force at its
+    /// centre that never reverses the velocity it opposes: a rolling ball slows at
     /// `rolling_resistance * g` against its horizontal velocity while it touches the
     /// playfield; the reference's sliding ball at `axis_deceleration` on x and on y
     /// independently (MuJoCo's `frictionloss` on each slide joint).
-    fn apply_ball_drag(&mut self, dt: f32) {
-        let ball = &mut self.world.bodies[self.ball];
-        ball.reset_forces(false);
+    fn ball_drag(&self, dt: f32) -> Vector {
+        let ball = &self.world.bodies[self.ball];
         let v = ball.linvel();
         let m = ball.mass();
         match self.ball_drag {
@@ -616,13 +657,116 @@ impl Table {
                 if on_floor && speed > 0.0 {
                     let stop = ROLLING_INERTIA_FACTOR * m * speed / dt;
                     let f = force.min(stop);
-                    ball.add_force(Vector::new(-v.x / speed * f, -v.y / speed * f, 0.0), false);
+                    Vector::new(-v.x / speed * f, -v.y / speed * f, 0.0)
+                } else {
+                    Vector::ZERO
                 }
             }
             BallDrag::PerAxis(deceleration) => {
                 let axis = |v: f32| -v.signum() * (m * deceleration).min(m * v.abs() / dt);
-                ball.add_force(Vector::new(axis(v.x), axis(v.y), 0.0), false);
+                Vector::new(axis(v.x), axis(v.y), 0.0)
             }
+        }
+    }
+
+    /// The ball's contacts with the men where the bodies are at the step's start (the
+    /// reference's are found so), for [`ManContacts::MujocoSoft`]: rod index and contact.
+    fn man_contacts(&self) -> Vec<(usize, ManContact)> {
+        let centre = self.world.bodies[self.ball].translation();
+        let ball_pose = Pose::from_translation(centre);
+        let ball_shape = Ball::new(geometry::BALL_RADIUS);
+        let mut out = Vec::new();
+        for (i, rod) in self.rods.iter().enumerate() {
+            let body_pose = *self.world.bodies[rod.body].position();
+            for &(handle, sphere_centre, radius) in &rod.men {
+                let gap = (body_pose * sphere_centre).distance(centre);
+                if gap > radius + geometry::BALL_RADIUS {
+                    continue;
+                }
+                let collider = &self.world.colliders[handle];
+                let pose = body_pose * collider.position_wrt_parent().copied().unwrap_or_default();
+                if let Ok(Some(c)) = rapier3d::parry::query::contact(
+                    &ball_pose,
+                    &ball_shape,
+                    &pose,
+                    collider.shape(),
+                    0.0,
+                ) {
+                    let point = 0.5 * (c.point1 + c.point2);
+                    out.push((
+                        i,
+                        ManContact {
+                            rod: 0,
+                            point,
+                            normal: -c.normal1,
+                            dist: c.dist,
+                        },
+                    ));
+                }
+            }
+        }
+        out
+    }
+
+    /// Adds the soft ball-man contacts' forces to the step's others (`rod_forces`: slide
+    /// force and torque per rod; `ball_force`), solved against them
+    /// ([`SoftContact::solve`]).
+    fn add_contact_forces(
+        &self,
+        law: &SoftContact,
+        before: &[RodState; NUM_RODS],
+        rod_forces: &mut [[f32; 2]; NUM_RODS],
+        ball_force: &mut Vector,
+        dt: f32,
+    ) {
+        let found = self.man_contacts();
+        if found.is_empty() {
+            return;
+        }
+        let mut touched: Vec<usize> = found.iter().map(|&(i, _)| i).collect();
+        touched.dedup();
+        let rods: Vec<RodDofs> = touched
+            .iter()
+            .map(|&i| {
+                let r = &self.rods[i];
+                let s = &before[i];
+                RodDofs {
+                    axis: r.axis,
+                    on_axis: self.world.bodies[r.body].translation(),
+                    slide_mass: r.slide_mass,
+                    turn_inertia: r.turn_inertia,
+                    vel: [s.slide_vel, s.angle_vel],
+                    free_acc: [
+                        rod_forces[i][0] / r.slide_mass,
+                        rod_forces[i][1] / r.turn_inertia,
+                    ],
+                }
+            })
+            .collect();
+        let contacts: Vec<ManContact> = found
+            .iter()
+            .map(|&(i, c)| ManContact {
+                rod: touched.iter().position(|&t| t == i).unwrap_or_default(),
+                ..c
+            })
+            .collect();
+        let ball = &self.world.bodies[self.ball];
+        let m = ball.mass();
+        let v = ball.linvel();
+        let forces = law.solve(
+            &BallDofs {
+                mass: m,
+                vel: [v.x, v.y],
+                free_acc: [ball_force.x / m, ball_force.y / m],
+            },
+            &rods,
+            &contacts,
+            dt,
+        );
+        *ball_force += Vector::new(forces.ball[0], forces.ball[1], 0.0);
+        for (&i, [f, t]) in touched.iter().zip(forces.rods) {
+            rod_forces[i][0] += f;
+            rod_forces[i][1] += t;
         }
     }
 
