@@ -8,8 +8,9 @@
 #   nohup bash tools/figure2_timed.sh > runs/logs/figure2-timed.out 2>&1 &
 #
 # Run again after an interruption, it resumes from the runs' epoch checkpoints. Every
-# segment's start and end go to OUT/timing.log (committed with the results), so the wall
-# time is the sum of the segments, read with `awk` as the README's results page says.
+# segment's start and end go to OUT/timing.log (committed with the results): the sweep's
+# wall time is the sum of its `segment_s` (a segment cut by the machine going away has no
+# end line; its end is the last file the sweep wrote).
 set -uo pipefail
 cd "$(dirname "$0")/.."
 bin=${BIN:-target/release}
