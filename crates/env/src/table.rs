@@ -129,7 +129,7 @@ struct Rod {
     /// soft contacts start, cm.
     soft_stops: Option<[f32; 2]>,
     /// The men's colliders with their bounding spheres in the rod's frame (centre, radius;
-    /// cm), for [`ManContacts::MujocoSoft`]'s own contact search.
+    /// cm), for [`ManContacts::MujocoSoft`]'s own contact search (empty under rapier's).
     men: Vec<(ColliderHandle, Vector, f32)>,
 }
 
@@ -348,6 +348,7 @@ impl Table {
             world.integration_parameters.normalized_prediction_distance = 0.0;
         }
 
+        let soft = params.man_contacts == ManContacts::MujocoSoft;
         let ground = world.insert_body(RigidBodyBuilder::fixed());
         for c in table_colliders() {
             world
@@ -398,16 +399,21 @@ impl Table {
                                 .insert_with_parent(c, body, &mut world.bodies)
                         })
                         .collect();
-                // Every collider after the shaft is a man's.
-                let men = colliders[1..]
-                    .iter()
-                    .map(|&h| {
-                        let c = &world.colliders[h];
-                        let local = c.position_wrt_parent().copied().unwrap_or_default();
-                        let sphere = c.shape().compute_local_bounding_sphere();
-                        (h, local * sphere.center(), sphere.radius())
-                    })
-                    .collect();
+                // Every collider after the shaft is a man's; only the soft contacts search
+                // them (a table is built at every reset: no work for the other models).
+                let men = if soft {
+                    colliders[1..]
+                        .iter()
+                        .map(|&h| {
+                            let c = &world.colliders[h];
+                            let local = c.position_wrt_parent().copied().unwrap_or_default();
+                            let sphere = c.shape().compute_local_bounding_sphere();
+                            (h, local * sphere.center(), sphere.radius())
+                        })
+                        .collect()
+                } else {
+                    Vec::new()
+                };
                 let held = if locked {
                     JointAxesMask::empty()
                 } else {
@@ -486,7 +492,6 @@ impl Table {
             .collect();
 
         let sliding = params.ball_model == BallModel::Reference;
-        let soft = params.man_contacts == ManContacts::MujocoSoft;
         let ball = world.insert_body(
             RigidBodyBuilder::dynamic()
                 .translation(Vector::new(ball_xy[0], ball_xy[1], geometry::BALL_RADIUS))
