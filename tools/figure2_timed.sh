@@ -3,7 +3,9 @@
 # seeds, 64x64, the whole protocol, the scripted baselines, then the report with the
 # planner beside them; two runs at a time, one thread each, on the build of BIN (default
 # target/release) and the configs of CONFIGS (default configs/, whose `backend = "auto"`
-# puts 64x64 networks on the host MLP path).
+# puts 64x64 networks on the host MLP path), into OUT (default results/figure2-v4), the
+# planner's figures from PLANNER (default results/planner/reference-v4; played first if
+# missing, inside the segment's time).
 #
 #   nohup bash tools/figure2_timed.sh > runs/logs/figure2-timed.out 2>&1 &
 #
@@ -15,15 +17,21 @@ set -uo pipefail
 cd "$(dirname "$0")/.."
 bin=${BIN:-target/release}
 configs=${CONFIGS:-configs}
-out=${OUT:-results/figure2-host}
+out=${OUT:-results/figure2-v4}
+planner=${PLANNER:-results/planner/reference-v4}
 mkdir -p "$out" runs/logs
 start=$(date +%s)
 echo "start $start $(date -u +%FT%TZ) rev $(cat "$bin/REV" 2>/dev/null || git rev-parse HEAD) nproc $(nproc)" >> "$out/timing.log"
 "$bin/sweep" --algos ppo,sac,td3 --seeds 0..5 --hidden 64,64 --jobs 2 --configs "$configs" \
     --out "$out" >> "runs/logs/$(basename "$out").log" 2>&1
 rc=$?
+if [ "$rc" -eq 0 ] && [ ! -f "$planner/metrics.json" ]; then
+    "$bin/evaluate" --policy planner --seed 0 --episodes 1000 --out "$planner" \
+        >> "runs/logs/$(basename "$out").log" 2>&1
+    rc=$?
+fi
 if [ "$rc" -eq 0 ]; then
-    "$bin/report" "$out" results/planner/reference-v3 --out "$out/report" \
+    "$bin/report" "$out" "$planner" --out "$out/report" \
         >> "runs/logs/$(basename "$out").log" 2>&1
     rc=$?
 fi

@@ -52,8 +52,8 @@ struct Args {
     /// Env steps per epoch (overrides `protocol.steps_per_epoch`).
     #[arg(long)]
     steps_per_epoch: Option<u64>,
-    /// Rule preset of the table (`reference`, `reference_v2`, `paper`, `end_on_goal`,
-    /// `reference_v1`, `paper_v1`): replaces the configs' `[env]` by the preset's values
+    /// Rule preset of the table (`reference`, `reference_v3`, `reference_v2`, `paper`,
+    /// `end_on_goal`, `reference_v1`, `paper_v1`): replaces the configs' `[env]` by the preset's values
     /// (their opponent kept).
     #[arg(long)]
     preset: Option<Preset>,

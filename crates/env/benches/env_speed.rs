@@ -6,8 +6,8 @@
 //! `target/bench/env_speed.json` (`bare_physics_steps_per_s`, `env_loop_physics_steps_per_s`,
 //! `env_steps_per_s_frame_skip_1`, `vec_env_speedup_2_threads`,
 //! `render_frames_per_s_84x84`, ...); the figures ending in `_locked_axes` are those of
-//! `rod_mount = "locked_axes"`; `env_steps_per_s_frame_skip_1_soft_contacts` that of
-//! `man_contacts = "mujoco_soft"`.
+//! `rod_mount = "locked_axes"`; `env_steps_per_s_frame_skip_1_rigid_contacts` that of
+//! `man_contacts = "rapier"` (the `reference_v3` game's).
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -124,14 +124,14 @@ fn main() {
         }
     }
 
-    // MuJoCo's soft ball-man contacts (`man_contacts = "mujoco_soft"`), frame skip 1.
-    let soft = FoosballConfig {
-        man_contacts: ManContacts::MujocoSoft,
+    // Rapier's ball-man contacts (`man_contacts = "rapier"`, `reference_v3`), frame skip 1.
+    let rigid = FoosballConfig {
+        man_contacts: ManContacts::Rapier,
         ..config.clone()
     };
-    print!("man_contacts mujoco_soft: ");
-    let per_s = env_loop(soft);
-    out.push(("env_steps_per_s_frame_skip_1_soft_contacts".into(), per_s));
+    print!("man_contacts rapier: ");
+    let per_s = env_loop(rigid);
+    out.push(("env_steps_per_s_frame_skip_1_rigid_contacts".into(), per_s));
 
     // The other rod mount: the bare table and the env loop at frame skips 1 and 5.
     let locked = FoosballConfig {

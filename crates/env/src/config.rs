@@ -3,44 +3,46 @@
 //! Every struct rejects unknown keys, and [`FoosballConfig::validate`] names the offending
 //! key (dotted path, e.g. `randomization.ball_mass_scale`) and value.
 //!
-//! A configuration starts from a [`Preset`] (`preset = "reference" | "reference_v2" |
-//! "paper" | "end_on_goal" | "reference_v1" | "paper_v1"`, default `reference`): keys
-//! written in the file override the preset's values, keys left out take them. The
-//! presets, with units:
+//! A configuration starts from a [`Preset`] (`preset = "reference" | "reference_v3" |
+//! "reference_v2" | "paper" | "end_on_goal" | "reference_v1" | "paper_v1"`, default
+//! `reference`): keys written in the file override the preset's values, keys left out
+//! take them. The presets, with units:
 //!
-//! | key | `reference` | `reference_v2` | `paper` | `end_on_goal` | `reference_v1` | `paper_v1` |
-//! | --- | --- | --- | --- | --- | --- | --- |
-//! | `ball_frame` (frame of every ball number, below) | joint | joint | joint | joint | world | world |
-//! | `action_map` | saturating | saturating | saturating | saturating | linear | linear |
-//! | `slide_stops` | bumpers | bumpers | bumpers | bumpers | control_range | control_range |
-//! | `ball.model` | reference | reference | reference | reference | rolling | rolling |
-//! | `men_shape` | mesh | reference | reference | reference | box | box |
-//! | `contact_recycling` (rapier's; stale contacts at cm scale) | false | false | false | false | true | true |
-//! | `physics_dt` (s) | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 |
-//! | `frame_skip` (physics steps per agent step) | 1 | 1 | 5 | 5 | 1 | 5 |
-//! | `max_episode_steps` (agent steps) | 20000 (40 s) | 20000 (40 s) | 4000 (40 s) | 4000 (40 s) | 20000 (40 s) | 4000 (40 s) |
-//! | `rules.stagnant_steps` (agent steps at <= `stagnant_speed` = 0.5 cm/s) | 10 (20 ms) | 10 (20 ms) | 10 (100 ms) | 10 (100 ms) | 10 (20 ms) | 10 (100 ms) |
-//! | `rules.no_progress_steps` (agent steps without +y) | 15 (30 ms) | 15 (30 ms) | 15 (150 ms) | 15 (150 ms) | 15 (30 ms) | 15 (150 ms) |
-//! | `rules.end_on_goal` | false | false | false | true | false | false |
-//! | `rules.serve_again` (a point's end serves again, the episode goes on) | false | false | false | false | false | false |
-//! | `reward.goal` (cm, in `ball_frame`) | (0, 65) | (0, 65) | (0, 64) | (0, 64) | (0, 65) | (0, 64) |
-//! | `reward.goal_line_y` (in black's goal when y >= it) | 65 | 65 | 64 | 64 | 65 | 64 |
-//! | `reward.own_goal_line_y` (in yellow's goal when y <= -it) | 65 | 65 | 64 | 64 | 65 | 64 |
-//! | `reward.beta` | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 once | 1000 per step in goal | 1000 per step in goal |
-//! | `reward.zero_shaping_in_goal` (`alpha - d` is 0 in goal) | true | true | false | false | true | false |
-//! | `reward.conceded_penalty` (per step in own goal) | 1000 | 1000 | 0 | 0 | 1000 | 0 |
-//! | `start.y_mean` (cm, in `ball_frame`) | 0.0 | 0.0 | -0.1 | -0.1 | -4.0 | -0.1 |
-//! | `integrator` (how a physics step is taken) | mujoco_euler | rapier | rapier | rapier | rapier | rapier |
-//! | `man_contacts` (the ball's contacts with the men) | rapier | rapier | rapier | rapier | rapier | rapier |
-//! | `ball.friction` (of every ball contact) | 1.0 | 0.01 | 0.01 | 0.01 | 0.3 | 0.3 |
-//! | `rod_mount` | locked_axes | joint | joint | joint | joint | joint |
-//! | `ball.planar` (no vertical ball motion) | true | true | true | true | true | false |
+//! | key | `reference` | `reference_v3` | `reference_v2` | `paper` | `end_on_goal` | `reference_v1` | `paper_v1` |
+//! | --- | --- | --- | --- | --- | --- | --- | --- |
+//! | `ball_frame` (frame of every ball number, below) | joint | joint | joint | joint | joint | world | world |
+//! | `action_map` | saturating | saturating | saturating | saturating | saturating | linear | linear |
+//! | `slide_stops` | bumpers | bumpers | bumpers | bumpers | bumpers | control_range | control_range |
+//! | `ball.model` | reference | reference | reference | reference | reference | rolling | rolling |
+//! | `men_shape` | mesh | mesh | reference | reference | reference | box | box |
+//! | `contact_recycling` (rapier's; stale contacts at cm scale) | false | false | false | false | false | true | true |
+//! | `physics_dt` (s) | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 |
+//! | `frame_skip` (physics steps per agent step) | 1 | 1 | 1 | 5 | 5 | 1 | 5 |
+//! | `max_episode_steps` (agent steps) | 20000 (40 s) | 20000 (40 s) | 20000 (40 s) | 4000 (40 s) | 4000 (40 s) | 20000 (40 s) | 4000 (40 s) |
+//! | `rules.stagnant_steps` (agent steps at <= `stagnant_speed` = 0.5 cm/s) | 10 (20 ms) | 10 (20 ms) | 10 (20 ms) | 10 (100 ms) | 10 (100 ms) | 10 (20 ms) | 10 (100 ms) |
+//! | `rules.no_progress_steps` (agent steps without +y) | 15 (30 ms) | 15 (30 ms) | 15 (30 ms) | 15 (150 ms) | 15 (150 ms) | 15 (30 ms) | 15 (150 ms) |
+//! | `rules.end_on_goal` | false | false | false | false | true | false | false |
+//! | `rules.serve_again` (a point's end serves again, the episode goes on) | false | false | false | false | false | false | false |
+//! | `reward.goal` (cm, in `ball_frame`) | (0, 65) | (0, 65) | (0, 65) | (0, 64) | (0, 64) | (0, 65) | (0, 64) |
+//! | `reward.goal_line_y` (in black's goal when y >= it) | 65 | 65 | 65 | 64 | 64 | 65 | 64 |
+//! | `reward.own_goal_line_y` (in yellow's goal when y <= -it) | 65 | 65 | 65 | 64 | 64 | 65 | 64 |
+//! | `reward.beta` | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 once | 1000 per step in goal | 1000 per step in goal |
+//! | `reward.zero_shaping_in_goal` (`alpha - d` is 0 in goal) | true | true | true | false | false | true | false |
+//! | `reward.conceded_penalty` (per step in own goal) | 1000 | 1000 | 1000 | 0 | 0 | 1000 | 0 |
+//! | `start.y_mean` (cm, in `ball_frame`) | 0.0 | 0.0 | 0.0 | -0.1 | -0.1 | -4.0 | -0.1 |
+//! | `integrator` (how a physics step is taken) | mujoco_euler | mujoco_euler | rapier | rapier | rapier | rapier | rapier |
+//! | `man_contacts` (the ball's contacts with the men) | mujoco_soft | rapier | rapier | rapier | rapier | rapier | rapier |
+//! | `ball.friction` (of every ball contact) | 1.0 | 1.0 | 0.01 | 0.01 | 0.01 | 0.3 | 0.3 |
+//! | `rod_mount` | locked_axes | locked_axes | joint | joint | joint | joint | joint |
+//! | `ball.planar` (no vertical ball motion) | true | true | true | true | true | true | false |
 //!
 //! `reference` is the paper's code (Foosball_CU v2 gym and its MuJoCo model), its rods
-//! moved step by step as MuJoCo moves them; `reference_v2` is the same game with this
-//! project's first servo, whose rods lag the model's first steps (kept so that the runs
-//! made on it still replay); `paper` and `end_on_goal` read the text's numbers in the
-//! code's frame on the code's table (with the first servo);
+//! moved step by step as MuJoCo moves them and the ball's contacts with the men made as
+//! MuJoCo makes them (soft); `reference_v3` is the same game with rapier's rigid contacts
+//! between the ball and the men (kept so that the runs made on it still replay);
+//! `reference_v2` is `reference_v3` with this project's first servo, whose rods lag the
+//! model's first steps (kept for its runs too); `paper` and `end_on_goal` read the text's
+//! numbers in the code's frame on the code's table (with the first servo);
 //! `reference_v1` and `paper_v1` are the first games of this project (world frame, linear
 //! actions, a rolling, bouncing ball), kept so that the runs made on them still replay.
 //!
@@ -65,10 +67,16 @@ pub enum Preset {
     /// control range, the model's sliding ball with dry friction per axis and dead
     /// contacts, slides stopped by the rods' bumpers, one 2 ms physics step per agent step
     /// (its counters are 20 ms and 30 ms), each step taken as MuJoCo takes it
-    /// ([`Integrator::MujocoEuler`]) with the mesh's men ([`MenShape::Mesh`]). The default:
-    /// it is what produced the paper's figures.
+    /// ([`Integrator::MujocoEuler`]) with the mesh's men ([`MenShape::Mesh`]), the
+    /// ball's contacts with them MuJoCo's soft ones ([`ManContacts::MujocoSoft`]). The
+    /// default: it is what produced the paper's figures.
     #[default]
     Reference,
+    /// The third `reference` of this project: the same game with rapier's rigid contacts
+    /// between the ball and the men ([`ManContacts::Rapier`]), whose constant-kick and
+    /// random episodes end 15-25 % sooner than the model's. The game of
+    /// `results/figure2-host` and `results/planner/reference-v3`.
+    ReferenceV3,
     /// The second `reference` of this project: the same rules, with this project's first
     /// step ([`Integrator::Rapier`]), leg blocks and the ball's own friction (0.01), whose
     /// rods reach the reference's end states but lag its first steps 2-4x. The game of
@@ -92,8 +100,9 @@ pub enum Preset {
 
 impl Preset {
     /// Every preset, in documentation order.
-    pub const ALL: [Preset; 6] = [
+    pub const ALL: [Preset; 7] = [
         Preset::Reference,
+        Preset::ReferenceV3,
         Preset::ReferenceV2,
         Preset::Paper,
         Preset::EndOnGoal,
@@ -105,6 +114,7 @@ impl Preset {
     pub fn name(self) -> &'static str {
         match self {
             Preset::Reference => "reference",
+            Preset::ReferenceV3 => "reference_v3",
             Preset::ReferenceV2 => "reference_v2",
             Preset::Paper => "paper",
             Preset::EndOnGoal => "end_on_goal",
@@ -277,6 +287,11 @@ impl FoosballConfig {
                 ..code_table
             },
             Preset::Reference => Self {
+                preset,
+                man_contacts: ManContacts::MujocoSoft,
+                ..Self::preset(Preset::ReferenceV3)
+            },
+            Preset::ReferenceV3 => Self {
                 preset,
                 ball: BallConfig {
                     friction: geometry::REFERENCE_CONTACT_FRICTION,

@@ -862,7 +862,10 @@ mod tests {
             man_contacts: ManContacts::MujocoSoft,
             ..FoosballConfig::default()
         });
-        let hard = PhysicsParams::nominal(&FoosballConfig::default());
+        let hard = PhysicsParams::nominal(&FoosballConfig {
+            man_contacts: ManContacts::Rapier,
+            ..FoosballConfig::default()
+        });
         // 0.2 cm into the front of yellow's resting centre midfielder's foot (rod at
         // y = -7.5, the foot's front about 0.6 cm ahead of the axis at the ball's height).
         let mut table = Table::new(&soft, [0.0, -7.5 + 0.6 + geometry::BALL_RADIUS - 0.2]);
