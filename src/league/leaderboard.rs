@@ -1,9 +1,11 @@
 //! The leaderboard of a league: standings sorted by rating, the win-rate matrix, and the
 //! files that show them: `leaderboard.json`, `leaderboard.md`, `heatmap.png` (row
-//! agent's points share against each column agent) and `index.html` (a sortable table
-//! and the heatmap, opening from disk with no server).
+//! agent's points share against each column agent, at most [`PAGE_WIDTH`] pixels wide)
+//! and `index.html` (a sortable table of short names, whole on hover, each with a line
+//! saying what it is and a link to its run, and the heatmap; it opens from disk with no
+//! server).
 
-use std::path::Path;
+use std::path::{Component, Path, PathBuf};
 
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -12,6 +14,7 @@ use serde::Serialize;
 use super::ratings::{Game, fit, intervals};
 use super::round_robin::LeagueDir;
 use crate::files::write_atomic;
+use crate::play::contestant::Contestant;
 use crate::play::matches::{MatchRules, Tally};
 use crate::play::metrics::wilson_points;
 use crate::png::png;
@@ -19,11 +22,24 @@ use crate::png::png;
 /// Bootstrap resamples of the rating intervals.
 pub const RESAMPLES: usize = 500;
 
+/// The window width the page's heatmap fits, pixels.
+pub const PAGE_WIDTH: i32 = 1280;
+
+/// Characters of a short name at most (longer ones keep their end).
+const SHORT_NAME_CHARS: usize = 32;
+
 /// One agent's line.
 #[derive(Clone, Debug, Serialize)]
 pub struct Standing {
     /// The agent, by the name it is parsed from.
     pub agent: String,
+    /// Its short name (a run's directory name; its parent's too where two would read
+    /// the same), at most 32 characters.
+    pub short: String,
+    /// What it is, in one line ([`Contestant::about`]).
+    pub about: String,
+    /// Its run directory, as named (none for a scripted policy).
+    pub run: Option<PathBuf>,
     /// Bradley-Terry rating, Elo scale (the anchor at 1000).
     pub rating: f64,
     /// Its 95 % bootstrap interval.
@@ -99,11 +115,17 @@ impl Leaderboard {
                 pairs[me][other].add(r.side(yellow));
             }
         }
+        let contestants: Vec<Option<Contestant>> = names.iter().map(|a| a.parse().ok()).collect();
+        let shorts = short_names(names, &contestants);
         let standings: Vec<Standing> = (0..n)
             .map(|i| {
                 let t = &tallies[i];
+                let c = contestants[i].as_ref();
                 Standing {
                     agent: names[i].clone(),
+                    short: shorts[i].clone(),
+                    about: c.map_or_else(|| "?".into(), Contestant::about),
+                    run: c.and_then(Contestant::run_dir).map(Path::to_path_buf),
                     rating: ratings[i],
                     ci95: ci[i],
                     matches: t.matches,
@@ -201,23 +223,17 @@ impl Leaderboard {
         write_atomic(&dir.join("leaderboard.md"), self.to_markdown().as_bytes())
             .map_err(|e| e.to_string())?;
         self.heatmap(&dir.join("heatmap.png"))?;
-        write_atomic(&dir.join("index.html"), self.html().as_bytes()).map_err(|e| e.to_string())
+        write_atomic(&dir.join("index.html"), self.html(dir).as_bytes()).map_err(|e| e.to_string())
     }
 
     fn heatmap(&self, path: &Path) -> Result<(), String> {
         let n = self.agents.len();
-        let cell = 64i32;
-        let longest = self
-            .agents
-            .iter()
-            .map(|a| a.chars().count().min(46))
-            .max()
-            .unwrap_or(0);
-        let label_w = 40 + 8 * longest as i32;
-        let size = (
-            (label_w + cell * n as i32 + 20) as u32,
-            (60 + cell * n as i32 + 40) as u32,
-        );
+        let shorts: Vec<&str> = self.standings.iter().map(|s| s.short.as_str()).collect();
+        let HeatmapLayout {
+            label_w,
+            cell,
+            size,
+        } = HeatmapLayout::of(&shorts);
         png(path, size, |root| {
             let title = ("sans-serif", 20).into_font();
             root.draw(&Text::new(
@@ -226,10 +242,12 @@ impl Leaderboard {
                 title,
             ))?;
             let font = TextStyle::from(("sans-serif", 14).into_font());
+            let numbers =
+                TextStyle::from(("sans-serif", if cell < 40 { 11 } else { 14 }).into_font());
             for (i, row) in self.matrix.iter().enumerate() {
                 let y = 60 + cell * i as i32;
                 root.draw(&Text::new(
-                    format!("{} {}", i + 1, shorten(&self.agents[i], 46)),
+                    format!("{} {}", i + 1, shorts[i]),
                     (label_w - 8, y + cell / 2),
                     font.clone().pos(Pos::new(HPos::Right, VPos::Center)),
                 ))?;
@@ -246,7 +264,7 @@ impl Leaderboard {
                     root.draw(&Text::new(
                         text,
                         (x + cell / 2, y + cell / 2),
-                        font.clone().pos(Pos::new(HPos::Center, VPos::Center)),
+                        numbers.clone().pos(Pos::new(HPos::Center, VPos::Center)),
                     ))?;
                 }
             }
@@ -262,16 +280,26 @@ impl Leaderboard {
         .map_err(|e| format!("{}: {e}", path.display()))
     }
 
-    fn html(&self) -> String {
+    /// The page written into `dir` (its links to the runs relative to it).
+    fn html(&self, dir: &Path) -> String {
         let rows: String = self
             .standings
             .iter()
             .enumerate()
             .map(|(k, s)| {
+                let name = match &s.run {
+                    Some(run) => format!(
+                        "<a href=\"{}\">{}</a>",
+                        escape(&relative(run, dir)),
+                        escape(&s.short)
+                    ),
+                    None => escape(&s.short),
+                };
                 format!(
-                    "<tr><td>{}</td><td>{}</td><td>{:.0}</td><td>{:.0} – {:.0}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:+}</td><td>{:.2}</td></tr>\n",
+                    "<tr><td>{}</td><td title=\"{}\">{name}<div class=\"about\">{}</div></td><td>{:.0}</td><td>{:.0} – {:.0}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:+}</td><td>{:.2}</td></tr>\n",
                     k + 1,
                     escape(&s.agent),
+                    escape(&s.about),
                     s.rating,
                     s.ci95[0],
                     s.ci95[1],
@@ -292,6 +320,8 @@ body {{ font-family: sans-serif; margin: 2em; color: #222; }}
 table {{ border-collapse: collapse; }}
 th, td {{ border: 1px solid #ccc; padding: 4px 10px; text-align: right; }}
 td:nth-child(2), th:nth-child(2) {{ text-align: left; }}
+td .about {{ font-size: 80%; color: #666; max-width: 36em; }}
+img {{ max-width: 100%; }}
 th {{ background: #eee; cursor: pointer; user-select: none; }}
 th.sorted::after {{ content: " ▾"; }}
 </style></head>
@@ -307,7 +337,7 @@ th.sorted::after {{ content: " ▾"; }}
 <script>
 document.querySelectorAll("#board th").forEach((th, col) => th.addEventListener("click", () => {{
   const body = document.querySelector("#board tbody");
-  const key = r => {{ const t = r.children[col].textContent; const v = parseFloat(t); return isNaN(v) ? t : v; }};
+  const key = r => {{ const t = r.children[col].firstChild.textContent; const v = parseFloat(t); return isNaN(v) ? t : v; }};
   const down = !th.classList.contains("sorted");
   document.querySelectorAll("#board th").forEach(h => h.classList.remove("sorted"));
   if (down) th.classList.add("sorted");
@@ -357,18 +387,189 @@ fn diverging(v: f64) -> RGBColor {
     }
 }
 
-/// `s` cut to `n` characters from the end (paths keep their run name).
-fn shorten(s: &str, n: usize) -> String {
-    let count = s.chars().count();
-    if count <= n {
-        s.to_string()
-    } else {
-        format!("…{}", s.chars().skip(count - n + 1).collect::<String>())
+/// Where the heatmap's labels and cells go: the label column's width, the cell's side and
+/// the image's size, pixels. Cells are 64 pixels where the agents fit [`PAGE_WIDTH`], as
+/// small as 24 where they do not.
+#[derive(Debug, PartialEq)]
+struct HeatmapLayout {
+    label_w: i32,
+    cell: i32,
+    size: (u32, u32),
+}
+
+impl HeatmapLayout {
+    fn of(labels: &[&str]) -> Self {
+        let n = labels.len().max(1) as i32;
+        let longest = labels.iter().map(|a| a.chars().count()).max().unwrap_or(0);
+        // "NN " before each label, about 8 pixels a character at 14 points.
+        let label_w = 40 + 8 * longest as i32;
+        let cell = ((PAGE_WIDTH - 20 - label_w) / n).clamp(24, 64);
+        Self {
+            label_w,
+            cell,
+            size: (
+                (label_w + cell * n + 20) as u32,
+                (60 + cell * n + 40) as u32,
+            ),
+        }
     }
+}
+
+/// The agents' short names ([`Contestant::short_name`]), cut to [`SHORT_NAME_CHARS`]: a
+/// run by its directory's name, by its parent's and its own where two would read the same,
+/// by its whole name where even those do; an agent that does not parse by its name.
+fn short_names(names: &[String], contestants: &[Option<Contestant>]) -> Vec<String> {
+    let at = |depth: usize| -> Vec<String> {
+        names
+            .iter()
+            .zip(contestants)
+            .map(|(name, c)| {
+                c.as_ref()
+                    .map_or_else(|| name.clone(), |c| c.short_name(depth))
+            })
+            .collect()
+    };
+    let (one, two) = (at(1), at(2));
+    let unique = |v: &[String], i: usize| v.iter().filter(|s| **s == v[i]).count() == 1;
+    (0..names.len())
+        .map(|i| {
+            let short = if unique(&one, i) {
+                &one[i]
+            } else if unique(&two, i) {
+                &two[i]
+            } else {
+                &names[i]
+            };
+            shorten(short, SHORT_NAME_CHARS)
+        })
+        .collect()
+}
+
+/// `target` as a link from a page in `base`: `..` for each of `base`'s components past
+/// their common start (a relative path taken from the working directory where the other
+/// is absolute).
+fn relative(target: &Path, base: &Path) -> String {
+    fn parts(p: &Path) -> Vec<Component<'_>> {
+        p.components().filter(|c| *c != Component::CurDir).collect()
+    }
+    let absolute = |p: &Path| match std::env::current_dir() {
+        Ok(cwd) if !p.is_absolute() => cwd.join(p),
+        _ => p.to_path_buf(),
+    };
+    let (target, base) = if target.is_absolute() == base.is_absolute() {
+        (target.to_path_buf(), base.to_path_buf())
+    } else {
+        (absolute(target), absolute(base))
+    };
+    let (t, b) = (parts(&target), parts(&base));
+    let common = t.iter().zip(&b).take_while(|(x, y)| x == y).count();
+    let mut link: PathBuf = b[common..].iter().map(|_| "..").collect();
+    link.extend(&t[common..]);
+    format!("{}/", link.display())
+}
+
+/// `s` cut to `n` characters (n >= 2) in its middle: the start and the end (a run's kind
+/// and its seed) kept, `…` between.
+fn shorten(s: &str, n: usize) -> String {
+    let chars: Vec<char> = s.chars().collect();
+    if chars.len() <= n {
+        return s.to_string();
+    }
+    let head = (n - 1) / 2;
+    let tail = n - 1 - head;
+    let start: String = chars[..head].iter().collect();
+    let end: String = chars[chars.len() - tail..].iter().collect();
+    format!("{start}…{end}")
 }
 
 fn escape(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_heatmap_of_fifteen_long_names_fits_the_page() {
+        let label = "x".repeat(SHORT_NAME_CHARS);
+        let layout = HeatmapLayout::of(&vec![label.as_str(); 15]);
+        assert!(layout.size.0 <= PAGE_WIDTH as u32, "{layout:?}");
+        // Twenty take smaller cells to fit.
+        let layout = HeatmapLayout::of(&vec![label.as_str(); 20]);
+        assert!(layout.size.0 <= PAGE_WIDTH as u32, "{layout:?}");
+        assert!(layout.cell >= 24 && layout.cell < 64, "{layout:?}");
+        // A few short names keep the full cell.
+        assert_eq!(HeatmapLayout::of(&["shooter", "zero", "random"]).cell, 64);
+    }
+
+    #[test]
+    fn short_names_are_run_names_with_their_parent_where_two_would_read_the_same() {
+        let dir = std::env::temp_dir().join("foosball-short-names");
+        let runs = [
+            "a/figure2/sac-seed0",
+            "a/figure2-v3/sac-seed0",
+            "a/league/ppo-seed1",
+        ];
+        for run in runs {
+            std::fs::create_dir_all(dir.join(run)).unwrap();
+            std::fs::write(dir.join(run).join("config.toml"), "algo = \"sac\"\n").unwrap();
+        }
+        let mut names: Vec<String> = runs
+            .iter()
+            .map(|r| dir.join(r).display().to_string())
+            .collect();
+        names[2] += "@best";
+        names.push("shooter".into());
+        names.push("no-such-agent".into());
+        let contestants: Vec<Option<Contestant>> = names.iter().map(|a| a.parse().ok()).collect();
+        assert_eq!(
+            short_names(&names, &contestants),
+            [
+                "figure2/sac-seed0",
+                "figure2-v3/sac-seed0",
+                "ppo-seed1@best",
+                "shooter",
+                "no-such-agent"
+            ]
+        );
+        let about = contestants[0].as_ref().unwrap().about();
+        assert!(about.starts_with("sac 256x256 networks trained"), "{about}");
+        assert!(
+            contestants[3]
+                .as_ref()
+                .unwrap()
+                .about()
+                .starts_with("scripted: Lines the man")
+        );
+    }
+
+    #[test]
+    fn a_run_is_linked_relative_to_the_page() {
+        let link = relative(
+            Path::new("results/figure2/sac-seed0"),
+            Path::new("results/league/leaderboard"),
+        );
+        assert_eq!(link, "../../figure2/sac-seed0/");
+        assert_eq!(
+            relative(Path::new("./runs/x"), Path::new("out")),
+            "../runs/x/"
+        );
+        let cwd = std::env::current_dir().unwrap();
+        assert_eq!(
+            relative(Path::new("runs/x"), &cwd.join("out")),
+            "../runs/x/"
+        );
+    }
+
+    #[test]
+    fn a_long_name_keeps_its_start_and_end() {
+        assert_eq!(
+            shorten("self-play-kickoff-hidden-seed1", 16),
+            "self-pl…en-seed1"
+        );
+        assert_eq!(shorten("sac-seed0", 16), "sac-seed0");
+    }
 }

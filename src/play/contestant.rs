@@ -4,9 +4,10 @@
 //! rod's play lets goals in).
 
 use std::fmt;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
+use clap::ValueEnum;
 use foosball_algos::ActMode;
 use foosball_env::geometry::RODS;
 use foosball_env::layout::{action_slide, action_turn};
@@ -127,6 +128,99 @@ impl fmt::Display for Contestant {
 }
 
 impl Contestant {
+    /// What it is, in one line for a person: a scripted policy's description, or a run's
+    /// algorithm, networks, game and opponents in training (read from its `config.toml`).
+    pub fn about(&self) -> String {
+        match self {
+            Contestant::Scripted(p) => {
+                let help = p
+                    .to_possible_value()
+                    .and_then(|v| v.get_help().map(ToString::to_string))
+                    .unwrap_or_default();
+                format!("scripted: {help}")
+            }
+            Contestant::Run {
+                dir,
+                checkpoint,
+                actions,
+            } => match RunConfig::load_run(dir) {
+                Ok(c) => {
+                    let hidden: Vec<String> = c.hidden().iter().map(usize::to_string).collect();
+                    let steps = c.protocol.epochs as u64 * c.protocol.steps_per_epoch;
+                    let against = match &c.self_play {
+                        Some(_) => "in self-play against its own snapshots".to_string(),
+                        None => format!("against black {}", c.env.opponent.name()),
+                    };
+                    let sampled = match actions {
+                        TestActions::Stochastic => ", sampled actions",
+                        TestActions::Deterministic => "",
+                    };
+                    format!(
+                        "{} {} networks trained {steps} env steps on {} {against}; its {} \
+                         networks{sampled}",
+                        c.algo(),
+                        hidden.join("x"),
+                        c.env.preset.name(),
+                        checkpoint.name()
+                    )
+                }
+                Err(e) => format!("a run ({e})"),
+            },
+            Contestant::Held { player, rods } => {
+                let names: Vec<&str> = rods
+                    .iter()
+                    .map(|&r| RODS.get(r).map_or("?", |rod| rod.name))
+                    .collect();
+                format!(
+                    "{}; its {} held at neutral",
+                    player.about(),
+                    names.join(", ")
+                )
+            }
+        }
+    }
+
+    /// Its run directory (none for a scripted policy).
+    pub fn run_dir(&self) -> Option<&Path> {
+        match self {
+            Contestant::Scripted(_) => None,
+            Contestant::Run { dir, .. } => Some(dir),
+            Contestant::Held { player, .. } => player.run_dir(),
+        }
+    }
+
+    /// A short name for tables: a scripted policy's name; a run's last `depth` path
+    /// components, `@best` and `~sampled` after them where they apply (the last networks,
+    /// deterministic, being the default); `+hold=...` as in its full name.
+    pub fn short_name(&self, depth: usize) -> String {
+        match self {
+            Contestant::Scripted(p) => p.name().to_string(),
+            Contestant::Run {
+                dir,
+                checkpoint,
+                actions,
+            } => {
+                let parts: Vec<String> = dir
+                    .components()
+                    .map(|c| c.as_os_str().to_string_lossy().into_owned())
+                    .collect();
+                let mut name = parts[parts.len().saturating_sub(depth.max(1))..].join("/");
+                if *checkpoint == Checkpoint::Best {
+                    name += "@best";
+                }
+                if *actions == TestActions::Stochastic {
+                    name += "~sampled";
+                }
+                name
+            }
+            Contestant::Held { player, .. } => {
+                let full = self.to_string();
+                let hold = full.rsplit_once("+hold=").map_or("", |(_, h)| h);
+                format!("{}+hold={hold}", player.short_name(depth))
+            }
+        }
+    }
+
     /// It with the rods named in `names` (`goalie,midfield`: [`RODS`]' names, comma
     /// separated) held at neutral; an error names an unknown rod.
     pub fn holding(self, names: &str) -> Result<Contestant, String> {
