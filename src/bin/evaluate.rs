@@ -27,8 +27,8 @@ struct Args {
     #[arg(long)]
     episodes: Option<u32>,
     /// Where to write metrics and trajectories (default `RUN/evaluate-<checkpoint>`, with
-    /// `-stochastic` after it for sampled actions, or `baselines/<policy>-<preset>` for a
-    /// policy).
+    /// `-stochastic` after it for sampled actions and `-on-<preset>` for another game, or
+    /// `baselines/<policy>-<preset>` for a policy).
     #[arg(long)]
     out: Option<PathBuf>,
     /// Play two-sided matches against this opponent instead of the test: a scripted
@@ -123,10 +123,16 @@ fn run(args: &Args) -> Result<String, String> {
             checkpoint,
             actions,
             ..
-        } => dir.join(match actions {
-            TestActions::Deterministic => format!("evaluate-{}", checkpoint.name()),
-            TestActions::Stochastic => format!("evaluate-{}-stochastic", checkpoint.name()),
-        }),
+        } => {
+            let mut name = format!("evaluate-{}", checkpoint.name());
+            if *actions == TestActions::Stochastic {
+                name += "-stochastic";
+            }
+            if let Some(preset) = args.player.preset {
+                name += &format!("-on-{}", preset.name());
+            }
+            dir.join(name)
+        }
         Player::Scripted(b) => PathBuf::from(format!(
             "baselines/{}-{}",
             b.policy.name(),

@@ -297,21 +297,27 @@ fn held_rods(names: &str) -> Result<Vec<usize>, String> {
     Ok(rods)
 }
 
-/// Whether a policy trained on `trained` reads and writes `table`'s observations and
-/// actions alike: the state observation, the same ball frame and action map.
+/// Whether a policy trained on `trained` can play a match on `table`: the state
+/// observation, read and written alike ([`means_the_same`]).
 pub fn fits(trained: &FoosballConfig, table: &FoosballConfig) -> Result<(), String> {
     if trained.observation.kind != ObservationKind::State {
         return Err("it sees images; matches are played on the state observation".into());
     }
+    means_the_same(trained, table)
+}
+
+/// Whether `table`'s observations and actions mean what they meant on `trained`: the
+/// same ball frame and action map.
+pub fn means_the_same(trained: &FoosballConfig, table: &FoosballConfig) -> Result<(), String> {
     if trained.ball_frame != table.ball_frame {
         return Err(format!(
-            "it was trained with ball_frame = {:?}, the match table has {:?}",
+            "it was trained with ball_frame = {:?}, the table has {:?}",
             trained.ball_frame, table.ball_frame
         ));
     }
     if trained.action_map != table.action_map {
         return Err(format!(
-            "it was trained with action_map = {:?}, the match table has {:?}",
+            "it was trained with action_map = {:?}, the table has {:?}",
             trained.action_map, table.action_map
         ));
     }

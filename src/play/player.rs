@@ -1,7 +1,7 @@
 //! Who plays test episodes for `evaluate` and `render`: a run's saved networks or a
 //! scripted policy on a table, chosen by the same command-line options in both.
 
-use super::contestant::Contestant;
+use super::contestant::{Contestant, means_the_same};
 use super::evaluation::{Episodes, PlayedEpisode, play_agent, write_test};
 use super::metrics::TestMetrics;
 use super::scripted::{Baseline, ScriptedPolicy};
@@ -31,8 +31,11 @@ pub struct PlayerArgs {
     /// A scripted policy instead of a run's networks.
     #[arg(long, value_enum, conflicts_with_all = ["run", "checkpoint"])]
     pub policy: Option<ScriptedPolicy>,
-    /// With `--policy`: the rule preset of the table (default reference).
-    #[arg(long, requires = "policy", conflicts_with = "config")]
+    /// With `--policy`: the rule preset of the table (default reference). With `--run`:
+    /// a game to test the run's networks on instead of its own (the preset's table with
+    /// the run's observation and opponent; refused where the networks' observations or
+    /// actions would mean something else there).
+    #[arg(long, conflicts_with = "config")]
     pub preset: Option<Preset>,
     /// With `--policy`: a run configuration whose `[env]` and `protocol.seed` to use.
     #[arg(long, requires = "policy")]
@@ -95,7 +98,18 @@ impl Player {
                 })))
             }
             (Some(dir), None) => {
-                let config = RunConfig::load_run(dir).map_err(|e| e.to_string())?;
+                let mut config = RunConfig::load_run(dir).map_err(|e| e.to_string())?;
+                if let Some(preset) = args.preset {
+                    let table = FoosballConfig {
+                        observation: config.env.observation,
+                        opponent: config.env.opponent,
+                        ..FoosballConfig::preset(preset)
+                    };
+                    means_the_same(&config.env, &table).map_err(|why| {
+                        format!("--preset {}: {}: {why}", preset.name(), dir.display())
+                    })?;
+                    config.env = table;
+                }
                 let checkpoint = args.checkpoint.unwrap_or(Checkpoint::Best);
                 let networks = dir.join(checkpoint.name());
                 if !networks.is_dir() {
@@ -137,7 +151,8 @@ impl Player {
         }
     }
 
-    /// A short name: `sac 64x64 (last networks of runs/x)`, `shooter under reference`.
+    /// A short name: `sac 64x64 (last networks of runs/x, deterministic actions) on
+    /// reference`, `shooter under reference`.
     pub fn describe(&self) -> String {
         match self {
             Player::Networks {
@@ -146,7 +161,7 @@ impl Player {
                 checkpoint,
                 actions,
             } => format!(
-                "{} {} ({} networks of {}, {} actions)",
+                "{} {} ({} networks of {}, {} actions) on {}",
                 config.algo(),
                 config
                     .hidden()
@@ -156,7 +171,8 @@ impl Player {
                     .join("x"),
                 checkpoint.name(),
                 dir.display(),
-                actions.name()
+                actions.name(),
+                config.env.preset.name()
             ),
             Player::Scripted(b) => format!("{} under {}", b.policy.name(), b.env.preset.name()),
         }

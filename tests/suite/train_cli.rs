@@ -248,6 +248,21 @@ fn evaluate_reproduces_the_test_of_the_saved_networks() {
     .unwrap();
     assert_eq!(best["episodes"], 2);
 
+    // On another game: the same networks, that game's table, its own output directory.
+    let o = evaluate(&["--run", r, "--preset", "reference_v3", "--episodes", "2"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("actions) on reference_v3"));
+    let other = std::fs::read_to_string(run_dir.join("evaluate-best-on-reference_v3/metrics.json"));
+    assert!(other.is_ok());
+    // A game whose observations mean something else is refused, naming the key.
+    let o = evaluate(&["--run", r, "--preset", "reference_v1"]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains("--preset reference_v1") && e.contains("ball_frame"),
+        "{e}"
+    );
+
     let o = evaluate(&["--run", dir.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("not a run directory"));
