@@ -768,6 +768,12 @@ impl RunConfig {
     pub fn hidden(&self) -> &[usize] {
         &self.algorithm.net().hidden
     }
+
+    /// The hidden widths as a label, e.g. `64x64`.
+    pub fn hidden_label(&self) -> String {
+        let widths: Vec<String> = self.hidden().iter().map(usize::to_string).collect();
+        widths.join("x")
+    }
 }
 
 /// Rewrites keys of earlier releases in a run or sweep file to today's shape; `text`

@@ -117,11 +117,7 @@ impl fmt::Display for Contestant {
                 Ok(())
             }
             Contestant::Held { player, rods } => {
-                let names: Vec<&str> = rods
-                    .iter()
-                    .map(|&r| RODS.get(r).map_or("?", |rod| rod.name))
-                    .collect();
-                write!(f, "{player}+hold={}", names.join(","))
+                write!(f, "{player}+hold={}", rod_names(rods, ","))
             }
         }
     }
@@ -145,7 +141,6 @@ impl Contestant {
                 actions,
             } => match RunConfig::load_run(dir) {
                 Ok(c) => {
-                    let hidden: Vec<String> = c.hidden().iter().map(usize::to_string).collect();
                     let steps = c.protocol.epochs as u64 * c.protocol.steps_per_epoch;
                     let against = match &c.self_play {
                         Some(_) => "in self-play against its own snapshots".to_string(),
@@ -159,7 +154,7 @@ impl Contestant {
                         "{} {} networks trained {steps} env steps on {} {against}; its {} \
                          networks{sampled}",
                         c.algo(),
-                        hidden.join("x"),
+                        c.hidden_label(),
                         c.env.preset.name(),
                         checkpoint.name()
                     )
@@ -167,14 +162,10 @@ impl Contestant {
                 Err(e) => format!("a run ({e})"),
             },
             Contestant::Held { player, rods } => {
-                let names: Vec<&str> = rods
-                    .iter()
-                    .map(|&r| RODS.get(r).map_or("?", |rod| rod.name))
-                    .collect();
                 format!(
                     "{}; its {} held at neutral",
                     player.about(),
-                    names.join(", ")
+                    rod_names(rods, ", ")
                 )
             }
         }
@@ -213,10 +204,8 @@ impl Contestant {
                 }
                 name
             }
-            Contestant::Held { player, .. } => {
-                let full = self.to_string();
-                let hold = full.rsplit_once("+hold=").map_or("", |(_, h)| h);
-                format!("{}+hold={hold}", player.short_name(depth))
+            Contestant::Held { player, rods } => {
+                format!("{}+hold={}", player.short_name(depth), rod_names(rods, ","))
             }
         }
     }
@@ -279,6 +268,15 @@ impl Contestant {
             }
         }
     }
+}
+
+/// The names of rods by index ([`RODS`]' names, `?` for none), joined by `sep`.
+fn rod_names(rods: &[usize], sep: &str) -> String {
+    let names: Vec<&str> = rods
+        .iter()
+        .map(|&r| RODS.get(r).map_or("?", |rod| rod.name))
+        .collect();
+    names.join(sep)
 }
 
 /// Rod indices from `goalie,midfield`-style names: ascending, each once.

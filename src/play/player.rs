@@ -163,12 +163,7 @@ impl Player {
             } => format!(
                 "{} {} ({} networks of {}, {} actions) on {}",
                 config.algo(),
-                config
-                    .hidden()
-                    .iter()
-                    .map(usize::to_string)
-                    .collect::<Vec<_>>()
-                    .join("x"),
+                config.hidden_label(),
                 checkpoint.name(),
                 dir.display(),
                 actions.name(),
