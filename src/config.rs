@@ -399,6 +399,72 @@ impl AlgoConfig {
     }
 }
 
+/// Training episodes begun along a teacher's scoring episodes (`[curriculum]`, issue 49's
+/// reverse curriculum; absent: every training episode from the table's own start). A share
+/// of the training episodes starts on one of the teacher's episodes (drawn uniformly among
+/// those that score), a number of agent steps before its goal that grows during the run:
+/// `first_back` steps at the start, the teacher's whole episode from `whole_at` of the
+/// run's env steps on. The point is reached exactly, by replaying the teacher's actions
+/// from its episode's seed ([`foosball_env::starts`]). Evaluations and the test start as
+/// without it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CurriculumConfig {
+    /// The teacher's episodes: a `trajectories.bin` that `evaluate` wrote (the planner's,
+    /// say) or a list of them, recorded on this run's game against `env.opponent`, from
+    /// seeds other than the run's evaluation and test starts.
+    pub trajectories: DemonstrationFiles,
+    /// Share of training episodes begun on a teacher's episode, in [0, 1].
+    pub share: f64,
+    /// Agent steps before the teacher's goal where those episodes begin at the run's start
+    /// (at least 1).
+    pub first_back: u32,
+    /// Fraction of the run's env steps, in (0, 1], from which they begin at the teacher's
+    /// own start; the distance to the goal grows linearly until then.
+    pub whole_at: f64,
+}
+
+impl Default for CurriculumConfig {
+    fn default() -> Self {
+        Self {
+            trajectories: DemonstrationFiles::Many(Vec::new()),
+            share: 0.5,
+            first_back: 5,
+            whole_at: 0.5,
+        }
+    }
+}
+
+impl CurriculumConfig {
+    /// Rejects out-of-range values; keys under `curriculum`.
+    fn validate(&self) -> Result<(), ConfigError> {
+        let err =
+            |key: &str, message: String| ConfigError::new(format!("curriculum.{key}"), message);
+        if self.trajectories.paths().is_empty() {
+            return Err(err(
+                "trajectories",
+                "name at least one trajectories.bin (the teacher's episodes)".into(),
+            ));
+        }
+        if !(0.0..=1.0).contains(&self.share) {
+            return Err(err(
+                "share",
+                format!("must be in [0, 1], got {}", self.share),
+            ));
+        }
+        if self.first_back == 0 {
+            return Err(err("first_back", "must be at least 1".into()));
+        }
+        if !(self.whole_at > 0.0 && self.whole_at <= 1.0) {
+            return Err(err(
+                "whole_at",
+                format!("must be in (0, 1], got {}", self.whole_at),
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// A whole run's settings: `algo`, `[protocol]`, `[env]` and the algorithm's section.
 /// Read and written in the TOML shape below; only the algorithm's own section can exist.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -412,6 +478,8 @@ pub struct RunConfig {
     pub algorithm: AlgoConfig,
     /// Self-play against a pool of the learner's snapshots (`None`: off).
     pub self_play: Option<SelfPlayConfig>,
+    /// Training episodes begun along a teacher's (`None`: off).
+    pub curriculum: Option<CurriculumConfig>,
 }
 
 /// A run configuration as TOML writes it: `algo` names the algorithm and at most that
@@ -432,6 +500,8 @@ struct RunConfigFile {
     td3: Option<Td3Config>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     self_play: Option<SelfPlayConfig>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    curriculum: Option<CurriculumConfig>,
 }
 
 impl TryFrom<RunConfigFile> for RunConfig {
@@ -458,6 +528,7 @@ impl TryFrom<RunConfigFile> for RunConfig {
             env: f.env,
             algorithm,
             self_play: f.self_play,
+            curriculum: f.curriculum,
         })
     }
 }
@@ -479,6 +550,7 @@ impl From<RunConfig> for RunConfigFile {
             sac,
             td3,
             self_play: c.self_play,
+            curriculum: c.curriculum,
         }
     }
 }
@@ -701,6 +773,22 @@ impl RunConfig {
         }
         if let Some(sp) = &self.self_play {
             sp.validate()?;
+        }
+        if let Some(c) = &self.curriculum {
+            c.validate()?;
+            if self.self_play.is_some() {
+                return Err(ConfigError::new(
+                    "curriculum",
+                    "not with [self_play]: the teacher's episodes were recorded against \
+                     env.opponent",
+                ));
+            }
+            if self.env.observation.kind != ObservationKind::State {
+                return Err(ConfigError::new(
+                    "curriculum",
+                    "replays recorded states: this run observes images",
+                ));
+            }
         }
         let o = &self.env.observation;
         if o.kind == ObservationKind::Image {

@@ -37,11 +37,7 @@ pub fn give_demonstrations(
             "{key}: the files hold states; this run observes images"
         ));
     }
-    let p = &config.protocol;
-    let held_out: HashSet<u64> = (0..u64::from(p.eval_episodes))
-        .map(|k| derive_seed(p.seed, EVAL_ENVS, k))
-        .chain((0..u64::from(p.test_episodes)).map(|k| derive_seed(p.seed, TEST_ENVS, k)))
-        .collect();
+    let held_out = held_out_seeds(config);
     let limit = config.env.max_episode_steps as usize;
     let frame = config.env.ball_frame;
     // Per episode: its states in the run's ball frame, its actions and rewards.
@@ -104,8 +100,18 @@ pub fn give_demonstrations(
         .map_err(|why| format!("{key} = {}: {why}", names(files.paths())))
 }
 
+/// The reset seeds of the run's evaluation and test episodes, which no episode it learns
+/// from may start from.
+pub fn held_out_seeds(config: &RunConfig) -> HashSet<u64> {
+    let p = &config.protocol;
+    (0..u64::from(p.eval_episodes))
+        .map(|k| derive_seed(p.seed, EVAL_ENVS, k))
+        .chain((0..u64::from(p.test_episodes)).map(|k| derive_seed(p.seed, TEST_ENVS, k)))
+        .collect()
+}
+
 /// The files as the config names them: `"a"` or `["a", "b"]`.
-fn names(paths: &[String]) -> String {
+pub fn names(paths: &[String]) -> String {
     let quoted: Vec<String> = paths.iter().map(|p| format!("\"{p}\"")).collect();
     match quoted.as_slice() {
         [one] => one.clone(),

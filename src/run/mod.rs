@@ -27,6 +27,7 @@
 //! - [`init`]: networks to start from (`protocol.init_from`, fine-tuning);
 //! - [`demonstrations`]: episodes to learn from beside the agent's own
 //!   (`protocol.demonstrations`);
+//! - [`curriculum`]: training episodes begun along a teacher's (`[curriculum]`);
 //! - [`log`]: training logs (CSV and TensorBoard);
 //! - [`budget`]: memory and time a run will need, told before it starts;
 //! - [`lock`]: one process at a time trains a run directory;
@@ -34,6 +35,7 @@
 
 pub mod budget;
 pub mod checkpoint;
+pub mod curriculum;
 pub mod demonstrations;
 pub mod init;
 pub mod interrupt;

@@ -3,6 +3,7 @@
 //! (resumable), then the test phase.
 
 use super::checkpoint::{self, CheckpointError, LoopState};
+use super::curriculum::{load_teacher, training_envs};
 use super::demonstrations::give_demonstrations;
 use super::init::init_networks;
 use super::interrupt;
@@ -11,7 +12,7 @@ use super::log::{CSV_FILES, RunLog, Speed};
 use crate::agents::{build_agent, device};
 use crate::config::{BestBy, Checkpoint, RunConfig, TestActions};
 use crate::files::{RunFileError, write_atomic};
-use crate::play::evaluation::{Episodes, PlayError, foosball_envs, play_agent, write_test};
+use crate::play::evaluation::{Episodes, PlayError, play_agent, write_test};
 use crate::play::metrics::TestMetrics;
 use crate::self_play::{SelfPlay, SelfPlayError};
 use foosball_algos::{Agent, AgentError, Collector};
@@ -203,6 +204,7 @@ pub fn train(
         let device = device(config)?;
         let mut agent = build_agent(config, &device);
         give_demonstrations(config, agent.as_mut()).map_err(TrainError::Init)?;
+        let teacher = load_teacher(config).map_err(TrainError::Init)?;
         let state = match start {
             Start::Resume => {
                 let dir = checkpoint::find(run_dir)
@@ -250,7 +252,8 @@ pub fn train(
         };
         let envs = match &self_play {
             Some(s) => s.envs(n)?,
-            None => foosball_envs(&config.env, n)?,
+            None => training_envs(config, teacher.as_ref(), n, agent.env_steps())
+                .map_err(TrainError::Init)?,
         };
         let envs = VecEnv::new(envs, threads)?;
         let mut collector = Collector::with_seeds(envs, &restart_seeds(p.seed, done, n));

@@ -15,6 +15,7 @@ mod algo_reproducibility;
 mod architecture;
 mod committed_runs;
 mod config_files;
+mod curriculum;
 mod demonstrations;
 mod evaluation;
 mod foosball_env;

@@ -30,6 +30,7 @@ use crate::opponent::Opponent;
 use crate::render::{Frame, Renderer};
 use crate::roster::opponent_for;
 use crate::spin::SpinMeter;
+use crate::starts::{EpisodeStarts, ReplayStart};
 use crate::table::{PhysicsParams, Table};
 
 /// Rods per side: yellow's are the first four of the state's rod blocks.
@@ -201,6 +202,12 @@ pub struct FoosballEnv {
     opponent: Box<dyn Opponent>,
     table: Option<Table>,
     episode: Option<Episode>,
+    /// Chooses training episodes' starts along recorded episodes (None: every start drawn).
+    starts: Option<Box<dyn EpisodeStarts>>,
+    /// The own stream, kept aside while a replayed episode runs on the recorded one's.
+    own_rng: Option<EnvRng>,
+    /// Agent steps taken since the env was built (replayed steps not counted).
+    agent_steps: u64,
 }
 
 fn uniform(rng: &mut EnvRng, [lo, hi]: [f32; 2]) -> f32 {
@@ -234,7 +241,17 @@ impl FoosballEnv {
             opponent,
             table: None,
             episode: None,
+            starts: None,
+            own_rng: None,
+            agent_steps: 0,
         })
+    }
+
+    /// This environment with training episodes started where `starts` says (see
+    /// [`crate::starts`]): asked at every reset without a seed.
+    pub fn with_starts(mut self, starts: Box<dyn EpisodeStarts>) -> Self {
+        self.starts = Some(starts);
+        self
     }
 
     /// The settings this environment runs with.
@@ -314,8 +331,41 @@ impl FoosballEnv {
             .ball
             .map(|seen| self.ball_start_world(seen))
             .transpose()?;
+        self.resume_own_stream(seed);
         self.start_episode(seed, ball, obs);
         Ok(())
+    }
+
+    /// Before a start the env draws itself: a seed restarts its stream (and reseeds the
+    /// [`EpisodeStarts`]); without one, the stream kept aside while a replayed episode
+    /// ran is taken up again.
+    fn resume_own_stream(&mut self, seed: Option<u64>) {
+        match seed {
+            Some(seed) => {
+                self.own_rng = None;
+                if let Some(starts) = self.starts.as_mut() {
+                    starts.reseed(seed);
+                }
+            }
+            None => {
+                if let Some(own) = self.own_rng.take() {
+                    self.rng = own;
+                }
+            }
+        }
+    }
+
+    /// Starts the episode recorded from `start.seed` and plays `start.actions` on it,
+    /// the own stream kept aside; false where that episode ends on the way (another
+    /// game's recording), the own stream then still aside for the caller's draw.
+    fn replay(&mut self, start: &ReplayStart, obs: &mut [f32]) -> bool {
+        let own = self.own_rng.take().unwrap_or_else(|| self.rng.clone());
+        self.own_rng = Some(own);
+        self.start_episode(Some(start.seed), None, obs);
+        start
+            .actions
+            .iter()
+            .all(|action| matches!(self.advance(action, obs), Ok(t) if !t.done()))
     }
 
     /// `seen` (the ball's `[x, y]` in the env's frame) in world coordinates, if the ball
@@ -533,10 +583,31 @@ impl Env for FoosballEnv {
     }
 
     fn reset_into(&mut self, seed: Option<u64>, obs: &mut [f32]) {
+        if seed.is_none() {
+            let steps = self.agent_steps;
+            let start = self.starts.as_mut().and_then(|s| s.next_start(steps));
+            if start.is_some_and(|start| self.replay(&start, obs)) {
+                return;
+            }
+        }
+        self.resume_own_stream(seed);
         self.start_episode(seed, None, obs);
     }
 
     fn step_into(
+        &mut self,
+        action: &[f32],
+        obs: &mut [f32],
+    ) -> Result<Transition<FoosballInfo>, EnvError> {
+        let transition = self.advance(action, obs)?;
+        self.agent_steps += 1;
+        Ok(transition)
+    }
+}
+
+impl FoosballEnv {
+    /// One agent step (what [`Env::step_into`] does, uncounted: a replayed step too).
+    fn advance(
         &mut self,
         action: &[f32],
         obs: &mut [f32],

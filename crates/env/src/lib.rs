@@ -9,7 +9,8 @@
 //! - [`render`]: top-down RGB frames of a table state (Gymnasium's `rgb_array`);
 //!   [`observation`]: the state or stacked frames of it as what the agent sees.
 //! - [`scripted`]: hand-written shooter and dribbler, the yardsticks for learners;
-//!   [`roster`]: the built-in opponents by name; [`spin`]: spinning rods counted.
+//!   [`roster`]: the built-in opponents by name; [`spin`]: spinning rods counted;
+//!   [`starts`]: training episodes begun along recorded ones (a reverse curriculum).
 //! - [`soft_contact`] and [`soft_stop`]: MuJoCo's soft constraints (the ball on the men,
 //!   the bumpers on the walls); [`servo`]: the rods' position servos.
 //! - [`config`]: the table's settings and presets, refused by key ([`config_error`]).
@@ -36,6 +37,7 @@ pub mod servo;
 pub mod soft_contact;
 pub mod soft_stop;
 pub mod spin;
+pub mod starts;
 pub mod table;
 pub mod vec_env;
 
@@ -45,6 +47,7 @@ pub use foosball::{EndReason, FoosballEnv, FoosballInfo, ResetOptions, ball_in_a
 pub use observation::{ObservationConfig, ObservationKind};
 pub use opponent::Opponent;
 pub use pendulum::Pendulum;
+pub use starts::{EpisodeStarts, ReplayStart};
 pub use vec_env::{VecEnv, VecEnvError, VecStep};
 
 /// The random number generator every environment owns: ChaCha8, whose stream is fixed by

@@ -12,6 +12,7 @@
 //! | [`ACTION_SAMPLING`] | sampled (stochastic) evaluation actions; `index` is the episodes' stream ([`EVAL_ENVS`] or [`TEST_ENVS`]) |
 //! | [`MATCHES`] | two-sided matches of a league: `index` = the match's number among a pair's |
 //! | [`PLANNER`] | the planner's search for episode `index` of the stream it is tested on |
+//! | [`CURRICULUM`] | which training episodes begin along a teacher's: `run_seed` is the training env's reset seed, `index` 0 |
 
 /// Stream of the training environments.
 pub const TRAIN_ENVS: u64 = 1;
@@ -27,6 +28,8 @@ pub const ACTION_SAMPLING: u64 = 5;
 pub const MATCHES: u64 = 6;
 /// Stream of the planner's searches (one per episode).
 pub const PLANNER: u64 = 7;
+/// Stream of a reverse curriculum's choices of starts (`crate::starts`).
+pub const CURRICULUM: u64 = 8;
 
 /// One SplitMix64 output step.
 fn splitmix64(mut z: u64) -> u64 {
@@ -56,6 +59,7 @@ mod tests {
             ACTION_SAMPLING,
             MATCHES,
             PLANNER,
+            CURRICULUM,
         ] {
             for index in 0..1000 {
                 assert!(seen.insert(derive_seed(7, stream, index)));

@@ -1,0 +1,309 @@
+//! Issue 49's reverse curriculum (`[curriculum]`): a share of the training episodes begins
+//! on one of a teacher's scoring episodes, a few agent steps before its goal at first and
+//! further back as the run goes on, until it begins at the teacher's own start (Salimans
+//! and Chen's "learning from a single demonstration", with many). The learner practises
+//! the last, millisecond-exact part of a goal where it is short, and earns the goal's
+//! reward there before it can find it from the kick-off.
+//!
+//! The teacher's files are read once per run: every episode that scores is kept up to the
+//! step that puts the ball in the goal, and played again on a table of the run's game to
+//! check that it still scores there at that step (a file of another game is refused,
+//! naming it). Each training env gets a [`TeacherStarts`] ([`foosball_env::starts`]),
+//! whose random stream restarts from each seeded reset of its env: a resumed run chooses
+//! as the uninterrupted one.
+
+use crate::config::{CurriculumConfig, RunConfig};
+use crate::play::evaluation::foosball_envs;
+use crate::play::trajectories::read_trajectories;
+use crate::run::demonstrations::{held_out_seeds, names};
+use foosball_env::layout::{ACTION_DIM, OBS_DIM};
+use foosball_env::seeding::{CURRICULUM, derive_seed};
+use foosball_env::starts::{EpisodeStarts, ReplayStart};
+use foosball_env::{Env, FoosballEnv, ball_in_a_goal};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::path::Path;
+use std::sync::Arc;
+
+/// One of the teacher's scoring episodes, up to its goal.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TeacherEpisode {
+    /// The seed it was reset with.
+    pub seed: u64,
+    /// Its actions up to the one that put the ball in the goal, `goal_step` of them.
+    pub actions: Vec<[f32; ACTION_DIM]>,
+}
+
+impl TeacherEpisode {
+    /// Agent steps from its start to the goal.
+    pub fn goal_step(&self) -> usize {
+        self.actions.len()
+    }
+}
+
+/// The scoring episodes of the files `c.trajectories`, each cut at its goal, checked to
+/// score at that step on `config`'s table. A refusal names the key and the file.
+pub fn teacher_episodes(
+    config: &RunConfig,
+    c: &CurriculumConfig,
+) -> Result<Vec<TeacherEpisode>, String> {
+    let key = "curriculum.trajectories";
+    let held_out = held_out_seeds(config);
+    let mut kept = Vec::new();
+    for path in c.trajectories.paths() {
+        let refuse = |why: String| format!("{key} = \"{path}\": {why}");
+        for (k, e) in read_trajectories(Path::new(path))
+            .map_err(refuse)?
+            .into_iter()
+            .enumerate()
+        {
+            if held_out.contains(&e.seed) {
+                return Err(refuse(format!(
+                    "episode {k} starts from seed {}, one of this run's evaluation or test \
+                     starts (record the teacher with another `evaluate --seed` than the run's)",
+                    e.seed
+                )));
+            }
+            let t = &e.trajectory;
+            let steps = t.rewards.len();
+            if t.obs.len() != steps * OBS_DIM || t.actions.len() != steps * ACTION_DIM {
+                return Err(refuse(format!(
+                    "episode {k} holds {} state and {} action values for {steps} steps, not \
+                     {OBS_DIM} and {ACTION_DIM} per step",
+                    t.obs.len(),
+                    t.actions.len()
+                )));
+            }
+            // Row `s` is the state acted on at step `s`: a ball seen in the goal there
+            // went in during step `s - 1`.
+            let goal = t
+                .obs
+                .chunks_exact(OBS_DIM)
+                .position(|s| ball_in_a_goal(&config.env, s));
+            if let Some(goal) = goal.filter(|&g| g > 0) {
+                let actions = t.actions[..goal * ACTION_DIM]
+                    .chunks_exact(ACTION_DIM)
+                    .map(|a| a.try_into().expect("a full row"))
+                    .collect();
+                let episode = TeacherEpisode {
+                    seed: e.seed,
+                    actions,
+                };
+                check_replay(config, &episode)
+                    .map_err(|why| refuse(format!("episode {k}: {why}")))?;
+                kept.push(episode);
+            }
+        }
+    }
+    if kept.is_empty() {
+        return Err(format!(
+            "{key} = {}: no episode scores; the curriculum begins along scoring ones",
+            names(c.trajectories.paths())
+        ));
+    }
+    Ok(kept)
+}
+
+/// Whether `episode` still scores at its goal step when played again on `config`'s table.
+fn check_replay(config: &RunConfig, episode: &TeacherEpisode) -> Result<(), String> {
+    let mut env = FoosballEnv::new(config.env.clone()).map_err(|e| format!("env.{e}"))?;
+    env.reset(Some(episode.seed));
+    for (s, action) in episode.actions.iter().enumerate() {
+        let (_, t) = env.step(action).map_err(|e| e.to_string())?;
+        let last = s + 1 == episode.goal_step();
+        if t.done() && !last {
+            return Err(format!(
+                "played again on this run's table it ends at step {} of the {} to its goal: \
+                 recorded on another game or against another opponent?",
+                s + 1,
+                episode.goal_step()
+            ));
+        }
+    }
+    let state = env.state().expect("a reset env has a state");
+    if ball_in_a_goal(&config.env, state) {
+        Ok(())
+    } else {
+        Err(format!(
+            "played again on this run's table its ball is not in the goal after the {} \
+             steps it took to score: recorded on another game or against another opponent?",
+            episode.goal_step()
+        ))
+    }
+}
+
+/// Agent steps before its goal where a teacher's episode is begun, `progress` (a fraction)
+/// into the run: `first_back` at 0, growing linearly to `goal_step` (the teacher's start)
+/// at `whole_at`, never before the start.
+pub fn steps_back(c: &CurriculumConfig, goal_step: usize, progress: f64) -> usize {
+    let first = (c.first_back as usize).min(goal_step);
+    let grown = (goal_step - first) as f64 * (progress / c.whole_at).clamp(0.0, 1.0);
+    first + grown.round() as usize
+}
+
+/// The starts of one training env: a teacher's episode with probability `share`, else the
+/// env's own draw.
+pub struct TeacherStarts {
+    teacher: Arc<Vec<TeacherEpisode>>,
+    config: CurriculumConfig,
+    /// This env's agent steps before the run (re)started (a resume's).
+    steps_before: u64,
+    /// This env's agent steps over the whole run.
+    steps_in_run: f64,
+    rng: ChaCha8Rng,
+}
+
+impl EpisodeStarts for TeacherStarts {
+    fn next_start(&mut self, env_steps: u64) -> Option<ReplayStart> {
+        if self.rng.random::<f64>() >= self.config.share {
+            return None;
+        }
+        let episode = &self.teacher[self.rng.random_range(0..self.teacher.len())];
+        let progress = (self.steps_before + env_steps) as f64 / self.steps_in_run;
+        let back = steps_back(&self.config, episode.goal_step(), progress);
+        Some(ReplayStart {
+            seed: episode.seed,
+            actions: episode.actions[..episode.goal_step() - back].to_vec(),
+        })
+    }
+
+    fn reseed(&mut self, seed: u64) {
+        self.rng = ChaCha8Rng::seed_from_u64(derive_seed(seed, CURRICULUM, 0));
+    }
+}
+
+/// The teacher's episodes of a run with a `[curriculum]`, read and checked
+/// ([`teacher_episodes`]); `None` without one.
+pub fn load_teacher(config: &RunConfig) -> Result<Option<Arc<Vec<TeacherEpisode>>>, String> {
+    config
+        .curriculum
+        .as_ref()
+        .map(|c| teacher_episodes(config, c).map(Arc::new))
+        .transpose()
+}
+
+/// The run's `n` training envs on `config.env`, each beginning episodes along `teacher`'s
+/// when given (the run's `[curriculum]`); `env_steps` is where the run (re)starts.
+pub fn training_envs(
+    config: &RunConfig,
+    teacher: Option<&Arc<Vec<TeacherEpisode>>>,
+    n: usize,
+    env_steps: u64,
+) -> Result<Vec<FoosballEnv>, String> {
+    let envs = foosball_envs(&config.env, n).map_err(|e| e.to_string())?;
+    let (Some(teacher), Some(c)) = (teacher, &config.curriculum) else {
+        return Ok(envs);
+    };
+    let per_env = |steps: u64| steps as f64 / n as f64;
+    Ok(envs
+        .into_iter()
+        .map(|env| {
+            env.with_starts(Box::new(TeacherStarts {
+                teacher: Arc::clone(teacher),
+                config: c.clone(),
+                steps_before: per_env(env_steps) as u64,
+                steps_in_run: per_env(config.protocol.total_env_steps()),
+                // Reseeded by the env's first reset, which has a seed.
+                rng: ChaCha8Rng::seed_from_u64(0),
+            }))
+        })
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn curriculum(first_back: u32, whole_at: f64) -> CurriculumConfig {
+        CurriculumConfig {
+            first_back,
+            whole_at,
+            ..CurriculumConfig::default()
+        }
+    }
+
+    #[test]
+    fn episodes_begin_first_back_before_the_goal_then_further_back_until_the_start() {
+        let c = curriculum(5, 0.5);
+        assert_eq!(steps_back(&c, 40, 0.0), 5);
+        assert_eq!(
+            steps_back(&c, 40, 0.25),
+            23,
+            "halfway to whole_at: 5 + 35 / 2"
+        );
+        assert_eq!(steps_back(&c, 40, 0.5), 40, "the teacher's own start");
+        assert_eq!(steps_back(&c, 40, 0.9), 40, "never before it");
+        assert_eq!(
+            steps_back(&c, 3, 0.0),
+            3,
+            "a goal nearer the start than first_back"
+        );
+    }
+
+    #[test]
+    fn the_share_and_the_schedule_decide_each_start() {
+        let teacher = Arc::new(vec![TeacherEpisode {
+            seed: 11,
+            actions: vec![[0.5; ACTION_DIM]; 30],
+        }]);
+        let starts = |share: f64| TeacherStarts {
+            teacher: Arc::clone(&teacher),
+            config: CurriculumConfig {
+                share,
+                ..curriculum(4, 1.0)
+            },
+            steps_before: 100,
+            steps_in_run: 1000.0,
+            rng: ChaCha8Rng::seed_from_u64(3),
+        };
+        let mut never = starts(0.0);
+        assert!((0..100).all(|_| never.next_start(0).is_none()));
+        let mut always = starts(1.0);
+        let first = always
+            .next_start(0)
+            .expect("share 1 always begins on the teacher");
+        assert_eq!(first.seed, 11);
+        // 10 % into the run: 4 + 26 * 0.1 = 6.6, 7 steps back of 30.
+        assert_eq!(first.actions.len(), 23);
+        // 100 + 400 of 1000 steps: 4 + 26 * 0.5 = 17 back.
+        assert_eq!(always.next_start(400).unwrap().actions.len(), 13);
+        let mut half = starts(0.5);
+        let taken = (0..1000).filter(|_| half.next_start(0).is_some()).count();
+        assert!((430..570).contains(&taken), "{taken} of 1000 at share 0.5");
+    }
+
+    #[test]
+    fn a_reseeded_chooser_chooses_again_as_it_did() {
+        let teacher = Arc::new(
+            (0..20)
+                .map(|k| TeacherEpisode {
+                    seed: k,
+                    actions: vec![[0.0; ACTION_DIM]; 10],
+                })
+                .collect::<Vec<_>>(),
+        );
+        let mut starts = TeacherStarts {
+            teacher,
+            config: curriculum(2, 0.5),
+            steps_before: 0,
+            steps_in_run: 100.0,
+            rng: ChaCha8Rng::seed_from_u64(0),
+        };
+        let draw = |s: &mut TeacherStarts| {
+            s.reseed(77);
+            (0..50)
+                .map(|_| s.next_start(0).map(|r| r.seed))
+                .collect::<Vec<_>>()
+        };
+        let first = draw(&mut starts);
+        assert_eq!(draw(&mut starts), first);
+        assert!(
+            first
+                .iter()
+                .flatten()
+                .collect::<std::collections::HashSet<_>>()
+                .len()
+                > 5
+        );
+    }
+}
