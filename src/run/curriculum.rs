@@ -14,15 +14,13 @@
 
 use crate::config::{CurriculumConfig, RunConfig};
 use crate::play::evaluation::foosball_envs;
-use crate::play::trajectories::read_trajectories;
-use crate::run::demonstrations::{held_out_seeds, names};
+use crate::run::demonstrations::{learnable_episodes, names};
 use foosball_env::layout::{ACTION_DIM, OBS_DIM};
 use foosball_env::seeding::{CURRICULUM, derive_seed};
 use foosball_env::starts::{EpisodeStarts, ReplayStart};
 use foosball_env::{Env, FoosballEnv, ball_in_a_goal};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use std::path::Path;
 use std::sync::Arc;
 
 /// One of the teacher's scoring episodes, up to its goal.
@@ -48,51 +46,36 @@ pub fn teacher_episodes(
     c: &CurriculumConfig,
 ) -> Result<Vec<TeacherEpisode>, String> {
     let key = "curriculum.trajectories";
-    let held_out = held_out_seeds(config);
     let mut kept = Vec::new();
-    for path in c.trajectories.paths() {
+    for (path, k, e) in learnable_episodes(config, key, c.trajectories.paths())? {
         let refuse = |why: String| format!("{key} = \"{path}\": {why}");
-        for (k, e) in read_trajectories(Path::new(path))
-            .map_err(refuse)?
-            .into_iter()
-            .enumerate()
-        {
-            if held_out.contains(&e.seed) {
-                return Err(refuse(format!(
-                    "episode {k} starts from seed {}, one of this run's evaluation or test \
-                     starts (record the teacher with another `evaluate --seed` than the run's)",
-                    e.seed
-                )));
-            }
-            let t = &e.trajectory;
-            let steps = t.rewards.len();
-            if t.obs.len() != steps * OBS_DIM || t.actions.len() != steps * ACTION_DIM {
-                return Err(refuse(format!(
-                    "episode {k} holds {} state and {} action values for {steps} steps, not \
-                     {OBS_DIM} and {ACTION_DIM} per step",
-                    t.obs.len(),
-                    t.actions.len()
-                )));
-            }
-            // Row `s` is the state acted on at step `s`: a ball seen in the goal there
-            // went in during step `s - 1`.
-            let goal = t
-                .obs
-                .chunks_exact(OBS_DIM)
-                .position(|s| ball_in_a_goal(&config.env, s));
-            if let Some(goal) = goal.filter(|&g| g > 0) {
-                let actions = t.actions[..goal * ACTION_DIM]
-                    .chunks_exact(ACTION_DIM)
-                    .map(|a| a.try_into().expect("a full row"))
-                    .collect();
-                let episode = TeacherEpisode {
-                    seed: e.seed,
-                    actions,
-                };
-                check_replay(config, &episode)
-                    .map_err(|why| refuse(format!("episode {k}: {why}")))?;
-                kept.push(episode);
-            }
+        let t = &e.trajectory;
+        let steps = t.rewards.len();
+        if t.obs.len() != steps * OBS_DIM || t.actions.len() != steps * ACTION_DIM {
+            return Err(refuse(format!(
+                "episode {k} holds {} state and {} action values for {steps} steps, not \
+                 {OBS_DIM} and {ACTION_DIM} per step",
+                t.obs.len(),
+                t.actions.len()
+            )));
+        }
+        // Row `s` is the state acted on at step `s`: a ball seen in the goal there
+        // went in during step `s - 1`.
+        let goal = t
+            .obs
+            .chunks_exact(OBS_DIM)
+            .position(|s| ball_in_a_goal(&config.env, s));
+        if let Some(goal) = goal.filter(|&g| g > 0) {
+            let actions = t.actions[..goal * ACTION_DIM]
+                .chunks_exact(ACTION_DIM)
+                .map(|a| a.try_into().expect("a full row"))
+                .collect();
+            let episode = TeacherEpisode {
+                seed: e.seed,
+                actions,
+            };
+            check_replay(config, &episode).map_err(|why| refuse(format!("episode {k}: {why}")))?;
+            kept.push(episode);
         }
     }
     if kept.is_empty() {
