@@ -46,6 +46,8 @@ pub fn teacher_episodes(
     c: &CurriculumConfig,
 ) -> Result<Vec<TeacherEpisode>, String> {
     let key = "curriculum.trajectories";
+    // One table replays every episode (each reset from its seed builds the episode anew).
+    let mut env = FoosballEnv::new(config.env.clone()).map_err(|e| format!("env.{e}"))?;
     let mut kept = Vec::new();
     for (path, k, e) in learnable_episodes(config, key, c.trajectories.paths())? {
         let refuse = |why: String| format!("{key} = \"{path}\": {why}");
@@ -74,7 +76,8 @@ pub fn teacher_episodes(
                 seed: e.seed,
                 actions,
             };
-            check_replay(config, &episode).map_err(|why| refuse(format!("episode {k}: {why}")))?;
+            check_replay(&mut env, config, &episode)
+                .map_err(|why| refuse(format!("episode {k}: {why}")))?;
             kept.push(episode);
         }
     }
@@ -87,9 +90,13 @@ pub fn teacher_episodes(
     Ok(kept)
 }
 
-/// Whether `episode` still scores at its goal step when played again on `config`'s table.
-fn check_replay(config: &RunConfig, episode: &TeacherEpisode) -> Result<(), String> {
-    let mut env = FoosballEnv::new(config.env.clone()).map_err(|e| format!("env.{e}"))?;
+/// Whether `episode` still scores at its goal step when played again on `env`, a table of
+/// `config`'s game.
+fn check_replay(
+    env: &mut FoosballEnv,
+    config: &RunConfig,
+    episode: &TeacherEpisode,
+) -> Result<(), String> {
     env.reset(Some(episode.seed));
     for (s, action) in episode.actions.iter().enumerate() {
         let (_, t) = env.step(action).map_err(|e| e.to_string())?;
