@@ -2,6 +2,7 @@
 //! environment and the algorithm's settings. Unknown keys and invalid values are refused
 //! with the file, the line and the dotted key.
 
+use crate::plan::PlannerConfig;
 use foosball_algos::{NetConfig, OffPolicyConfig, PpoConfig, SacConfig, Td3Config};
 use foosball_env::{ConfigError, FoosballConfig, ObservationKind, OpponentKind};
 use foosball_nets::Backend;
@@ -465,6 +466,82 @@ impl CurriculumConfig {
     }
 }
 
+/// The planner as an interactive teacher (`[dagger]`, issue 49; Ross et al.'s DAgger):
+/// every `every` env steps the learner plays `episodes` episodes of its own (from starts
+/// of a stream of their own, [`foosball_env::seeding::DAGGER`]); in each, the planner
+/// takes over at one step drawn uniformly, searching from the state the learner reached
+/// there, its first sampling centred on what the learner played from that step on; where
+/// it finds a goal, the states from that step on with the planner's actions join the
+/// run's demonstrations (the aggregate, never dropped), which fill
+/// `off_policy.demo_share` of each minibatch (cloned with `bc_weight`). The learner's
+/// episodes and the planner's rollouts are simulated, not counted as the run's env steps
+/// (the scalars log them: `train/dagger_*`). Evaluations and the test play the networks alone.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DaggerConfig {
+    /// Env steps of training between two rounds of queries (at least 1).
+    pub every: u64,
+    /// The learner's episodes per round, one query each (at least 1).
+    pub episodes: u32,
+    /// How the learner acts in them.
+    pub actions: TestActions,
+    /// The search of each query ([`PlannerConfig`]; its `initial_std` is the spread of
+    /// the first sampling around the learner's own actions). Absent: [`DaggerConfig::planner_budget`];
+    /// a `[dagger.planner]` table is a whole planner budget, its missing keys the
+    /// planner's own defaults (as `evaluate --planner FILE` reads them).
+    pub planner: PlannerConfig,
+}
+
+impl Default for DaggerConfig {
+    fn default() -> Self {
+        Self {
+            every: 1_000,
+            episodes: 4,
+            actions: TestActions::Deterministic,
+            planner: Self::planner_budget(),
+        }
+    }
+}
+
+impl DaggerConfig {
+    /// A query's search when `[dagger.planner]` is absent: 32 candidates, 4 elites, at
+    /// most 8 refinements of 6 segments of 5 steps (the last held), each rollout at most
+    /// 60 agent steps, sampled 0.3 around the learner's actions; at most 249 rollouts.
+    pub fn planner_budget() -> PlannerConfig {
+        PlannerConfig {
+            population: 32,
+            elites: 4,
+            iterations: 8,
+            segments: 6,
+            segment_steps: 5,
+            initial_std: 0.3,
+            max_rollout_steps: 60,
+            ..PlannerConfig::default()
+        }
+    }
+
+    /// Rejects out-of-range values; keys under `dagger`.
+    fn validate(&self) -> Result<(), ConfigError> {
+        let err = |key: &str, message: String| ConfigError::new(format!("dagger.{key}"), message);
+        if self.every == 0 {
+            return Err(err("every", "must be at least 1".into()));
+        }
+        if self.episodes == 0 {
+            return Err(err("episodes", "must be at least 1".into()));
+        }
+        self.planner
+            .validate()
+            .map_err(|why| ConfigError::new("dagger", why))?;
+        if self.planner.shared_starts != 0 {
+            return Err(err(
+                "planner.shared_starts",
+                "a query searches from one state: leave it out".into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// A whole run's settings: `algo`, `[protocol]`, `[env]` and the algorithm's section.
 /// Read and written in the TOML shape below; only the algorithm's own section can exist.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -480,6 +557,8 @@ pub struct RunConfig {
     pub self_play: Option<SelfPlayConfig>,
     /// Training episodes begun along a teacher's (`None`: off).
     pub curriculum: Option<CurriculumConfig>,
+    /// The planner relabelling states the learner reaches (`None`: off).
+    pub dagger: Option<DaggerConfig>,
 }
 
 /// A run configuration as TOML writes it: `algo` names the algorithm and at most that
@@ -502,6 +581,8 @@ struct RunConfigFile {
     self_play: Option<SelfPlayConfig>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     curriculum: Option<CurriculumConfig>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    dagger: Option<DaggerConfig>,
 }
 
 impl TryFrom<RunConfigFile> for RunConfig {
@@ -529,6 +610,7 @@ impl TryFrom<RunConfigFile> for RunConfig {
             algorithm,
             self_play: f.self_play,
             curriculum: f.curriculum,
+            dagger: f.dagger,
         })
     }
 }
@@ -551,6 +633,7 @@ impl From<RunConfig> for RunConfigFile {
             td3,
             self_play: c.self_play,
             curriculum: c.curriculum,
+            dagger: c.dagger,
         }
     }
 }
@@ -763,10 +846,10 @@ impl RunConfig {
                     ),
                 ));
             }
-            (None, Some(_)) => {
+            (None, Some(_)) if self.dagger.is_none() => {
                 return Err(ConfigError::new(
                     format!("{}.off_policy.demo_share", self.algo()),
-                    "draws from demonstrations: set protocol.demonstrations",
+                    "draws from demonstrations: set protocol.demonstrations (or [dagger])",
                 ));
             }
             _ => {}
@@ -787,6 +870,31 @@ impl RunConfig {
                 return Err(ConfigError::new(
                     "curriculum",
                     "replays recorded states: this run observes images",
+                ));
+            }
+        }
+        if let Some(d) = &self.dagger {
+            d.validate()?;
+            if demo_share.is_none() {
+                return Err(ConfigError::new(
+                    "dagger",
+                    format!(
+                        "its labels are demonstrations: set {}.off_policy.demo_share (SAC \
+                         and TD3 only), the share of each minibatch they fill",
+                        self.algo()
+                    ),
+                ));
+            }
+            if self.self_play.is_some() {
+                return Err(ConfigError::new(
+                    "dagger",
+                    "not with [self_play]: the planner searches against env.opponent",
+                ));
+            }
+            if self.env.observation.kind != ObservationKind::State {
+                return Err(ConfigError::new(
+                    "dagger",
+                    "labels states: this run observes images",
                 ));
             }
         }

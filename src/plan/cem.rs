@@ -2,7 +2,8 @@
 //!
 //! A plan is `segments` actions (8 values each), each held for `segment_steps` agent steps,
 //! the last one to the episode's end. A candidate's value ([`Outcome::value`]: scoring
-//! soon, or the return) is that of the episode it plays from the start (`reset(seed)` and the plan, on a table of the same config): the
+//! soon, or the return) is that of the episode it plays from the start (`reset(seed)` and the plan, on a table of the same config), or from a
+//! state along an episode ([`PlanStart`]: the reset and the actions that led there): the
 //! table is deterministic given its seed and actions (the opponent and the noise included),
 //! so the value of a plan is exactly what playing it earns, and the search needs no
 //! snapshot of a table in motion. Each iteration:
@@ -88,12 +89,32 @@ pub struct Search {
     pub simulated_steps: u64,
 }
 
-/// Plays `plan` on `env` from `reset(seed)`, `segment_steps` agent steps per action and
-/// the last action to the end, logging each step into `log`; stops at the episode's end or
-/// after `max_steps` agent steps.
+/// Where a plan takes over: the episode reset from `seed`, then `prefix`'s actions played
+/// (one row per agent step, in `[-1, 1]`; none: the episode's start). The table being
+/// deterministic given its seed and actions, this reaches any state of an episode that
+/// was played from `seed`, exactly.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlanStart<'a> {
+    /// The episode's reset seed.
+    pub seed: u64,
+    /// The actions played before the plan.
+    pub prefix: &'a [[f32; ACTION_DIM]],
+}
+
+impl PlanStart<'static> {
+    /// The start of the episode reset from `seed`.
+    pub fn reset(seed: u64) -> Self {
+        Self { seed, prefix: &[] }
+    }
+}
+
+/// Plays `plan` on `env` from `start`, `segment_steps` agent steps per action and the last
+/// action to the end, logging each step of the plan (not the prefix's) into `log`; stops
+/// at the episode's end or after `max_steps` agent steps of the plan. An episode that
+/// ends within the prefix logs nothing.
 pub fn follow<L: EpisodeLog<FoosballEnv>>(
     env: &mut FoosballEnv,
-    seed: u64,
+    start: PlanStart<'_>,
     plan: &[[f32; ACTION_DIM]],
     segment_steps: usize,
     max_steps: Option<u32>,
@@ -101,7 +122,12 @@ pub fn follow<L: EpisodeLog<FoosballEnv>>(
 ) -> Result<(), EnvError> {
     use foosball_env::Env;
     let mut obs = vec![0.0; env.obs_dim()];
-    env.reset_into(Some(seed), &mut obs);
+    env.reset_into(Some(start.seed), &mut obs);
+    for action in start.prefix {
+        if env.step_into(action, &mut obs)?.done() {
+            return Ok(());
+        }
+    }
     for t in 0.. {
         if max_steps.is_some_and(|m| t >= m) {
             break;
@@ -117,13 +143,14 @@ pub fn follow<L: EpisodeLog<FoosballEnv>>(
     Ok(())
 }
 
-/// Searches a plan for the episode of `env`'s config reset from `seed`; the search's own
-/// draws come from `search_seed`, so the same call finds the same plan. It starts from
-/// `from` (a mean plan and its spread, e.g. a shared plan to refine) or, by default, from
-/// mean 0 and spread `initial_std`.
+/// Searches a plan for the episode of `env`'s config from `start` (its reset, or a state
+/// along it); the search's own draws come from `search_seed`, so the same call finds the
+/// same plan. It starts from `from` (a mean plan and its spread, e.g. a shared plan to
+/// refine, or what a learner played from there) or, by default, from mean 0 and spread
+/// `initial_std`.
 pub fn search(
     env: &mut FoosballEnv,
-    seed: u64,
+    start: PlanStart<'_>,
     search_seed: u64,
     config: &PlannerConfig,
     from: Option<(&Plan, f32)>,
@@ -140,7 +167,7 @@ pub fn search(
         let mut outcome = Outcome::default();
         follow(
             env,
-            seed,
+            start,
             plan,
             c.segment_steps,
             Some(c.max_rollout_steps),
@@ -253,8 +280,15 @@ pub fn search_shared(
                     for &seed in starts {
                         let mut outcome = Outcome::default();
                         let cap = Some(c.max_rollout_steps);
-                        follow(table, seed, plan, c.segment_steps, cap, &mut outcome)
-                            .map_err(|e| e.to_string())?;
+                        follow(
+                            table,
+                            PlanStart::reset(seed),
+                            plan,
+                            c.segment_steps,
+                            cap,
+                            &mut outcome,
+                        )
+                        .map_err(|e| e.to_string())?;
                         value += outcome.value(c.objective);
                         goals += f64::from(u8::from(outcome.scored));
                         steps += u64::from(outcome.steps);

@@ -10,5 +10,5 @@
 pub mod cem;
 pub mod config;
 
-pub use cem::{Outcome, Plan, Search, SharedSearch, follow, search, search_shared};
+pub use cem::{Outcome, Plan, PlanStart, Search, SharedSearch, follow, search, search_shared};
 pub use config::{Objective, PlannerConfig};

@@ -5,7 +5,7 @@
 
 use super::evaluation::{PlayError, PlayedEpisode, foosball_envs};
 use crate::files::{RunFileError, write_atomic};
-use crate::plan::{Plan, PlannerConfig, follow, search, search_shared};
+use crate::plan::{Plan, PlanStart, PlannerConfig, follow, search, search_shared};
 use foosball_env::FoosballConfig;
 use foosball_env::seeding::{PLANNER, derive_seed};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -98,14 +98,28 @@ pub fn play_planned(
                     Some(_) => None,
                     None => {
                         let search_seed = derive_seed(seed, PLANNER, 0);
-                        Some(search(table, seed, search_seed, planner, refine)?)
+                        Some(search(
+                            table,
+                            PlanStart::reset(seed),
+                            search_seed,
+                            planner,
+                            refine,
+                        )?)
                     }
                 };
                 let plan = (found.as_ref().map(|f| &f.plan))
                     .or(unchanged.map(|one| &one.plan))
                     .expect("an episode searches its plan or plays the shared one");
                 let mut episode = PlayedEpisode::new(seed, record);
-                follow(table, seed, plan, planner.segment_steps, None, &mut episode)?;
+                let start = PlanStart::reset(seed);
+                follow(
+                    table,
+                    start,
+                    plan,
+                    planner.segment_steps,
+                    None,
+                    &mut episode,
+                )?;
                 let scored = goals.fetch_add(u32::from(episode.summary.scored), Relaxed);
                 bar.set_message(format!(
                     "({} scored)",

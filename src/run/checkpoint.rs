@@ -9,6 +9,7 @@
 //! checkpoint (see [`crate::run::train`]), so no physics state needs saving.
 
 use crate::files::RunFileError;
+use crate::run::dagger::DaggerState;
 use crate::self_play::pool::PoolState;
 use foosball_algos::{Agent, AgentError};
 use foosball_nets::{Snapshot, SnapshotError};
@@ -37,6 +38,8 @@ pub struct LoopState {
     pub log_bytes: Vec<u64>,
     /// A self-play run's pool (snapshot steps, records); `None` without self-play.
     pub self_play: Option<PoolState>,
+    /// An interactive teacher's rounds and labels; `None` without `[dagger]`.
+    pub dagger: Option<DaggerState>,
 }
 
 impl LoopState {
@@ -49,6 +52,9 @@ impl LoopState {
         if let Some(pool) = &self.self_play {
             pool.save(snap);
         }
+        if let Some(dagger) = &self.dagger {
+            dagger.save(snap);
+        }
     }
 
     fn load(snap: &Snapshot<'_>) -> Result<Self, SnapshotError> {
@@ -59,6 +65,7 @@ impl LoopState {
             best: snap.f64("loop.best")?,
             log_bytes: snap.u64s("loop.log_bytes")?.to_vec(),
             self_play: PoolState::load(snap)?,
+            dagger: DaggerState::load(snap)?,
         })
     }
 }

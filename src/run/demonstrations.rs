@@ -17,19 +17,63 @@ use foosball_env::{ObservationKind, ball_in_a_goal};
 use std::collections::HashSet;
 use std::path::Path;
 
+/// A demonstrated episode the run holds (the owned form of [`Demonstration`]): `obs`
+/// `[T, obs_dim]` as the agent observes them, `actions` `[T, action_dim]`, `rewards` `[T]`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct DemoEpisode {
+    /// States acted on, as the agent observes them, `[T, obs_dim]`.
+    pub obs: Vec<f32>,
+    /// Actions played, `[T, action_dim]`, in `[-1, 1]`.
+    pub actions: Vec<f32>,
+    /// Rewards received, `[T]`.
+    pub rewards: Vec<f32>,
+    /// It ended in a terminal state (else it was cut).
+    pub terminated: bool,
+    /// That terminal state has the ball lying in a goal.
+    pub absorbing: bool,
+}
+
+impl DemoEpisode {
+    /// The borrowed form the agents take.
+    pub fn view(&self) -> Demonstration<'_> {
+        Demonstration {
+            obs: &self.obs,
+            actions: &self.actions,
+            rewards: &self.rewards,
+            terminated: self.terminated,
+            absorbing: self.absorbing,
+        }
+    }
+}
+
 /// Gives `agent` the episodes of the files of `config.protocol.demonstrations`, in
-/// order, and returns how many transitions it kept (`None` when the key is unset). An
-/// episode shorter than the table's `max_episode_steps` ended in a terminal state; one
-/// that long was cut. A refusal names the key and the file: unreadable, an image
-/// observation (the files hold states), an episode played from one of the run's
-/// evaluation or test starts (they would leak into the held-out seeds), widths the agent
-/// does not take, or an algorithm without `off_policy.demo_share`.
+/// order, and returns how many transitions it kept (`None` when the key is unset). A
+/// refusal names the key and the files ([`file_demonstrations`]), or says why the agent
+/// cannot take them (an algorithm without `off_policy.demo_share`).
 pub fn give_demonstrations(
     config: &RunConfig,
     agent: &mut dyn Agent,
 ) -> Result<Option<usize>, String> {
     let Some(files) = &config.protocol.demonstrations else {
         return Ok(None);
+    };
+    let episodes = file_demonstrations(config)?;
+    let demos: Vec<Demonstration<'_>> = episodes.iter().map(DemoEpisode::view).collect();
+    agent
+        .set_demonstrations(&demos)
+        .map(Some)
+        .map_err(|why| format!("protocol.demonstrations = {}: {why}", names(files.paths())))
+}
+
+/// The episodes of the files of `config.protocol.demonstrations` (none when the key is
+/// unset), in order, as the agent observes them. An episode shorter than the table's
+/// `max_episode_steps` ended in a terminal state; one that long was cut. A refusal names
+/// the key and the file: unreadable, an image observation (the files hold states), an
+/// episode played from one of the run's evaluation or test starts (they would leak into
+/// the held-out seeds), or widths that are not the table's.
+pub fn file_demonstrations(config: &RunConfig) -> Result<Vec<DemoEpisode>, String> {
+    let Some(files) = &config.protocol.demonstrations else {
+        return Ok(Vec::new());
     };
     let key = "protocol.demonstrations";
     if config.env.observation.kind != ObservationKind::State {
@@ -38,8 +82,6 @@ pub fn give_demonstrations(
         ));
     }
     let limit = config.env.max_episode_steps as usize;
-    let frame = config.env.ball_frame;
-    // Per episode: its states in the run's ball frame, its actions and rewards.
     let mut episodes = Vec::new();
     for (path, k, e) in learnable_episodes(config, key, files.paths())? {
         let refuse = |why: String| format!("{key} = \"{path}\": {why}");
@@ -51,15 +93,6 @@ pub fn give_demonstrations(
                 t.rewards.len()
             )));
         }
-        let rows: Vec<f32> = t
-            .obs
-            .chunks_exact(OBS_DIM)
-            .flat_map(|s| {
-                let mut row = in_ball_frame(s.try_into().expect("a full row"), frame);
-                config.env.observation.conceal(&mut row);
-                row
-            })
-            .collect();
         // A terminated episode ends absorbing when its last state has the ball in a
         // goal (under the paper's rules it lies there until it is still).
         let absorbing = t
@@ -67,22 +100,29 @@ pub fn give_demonstrations(
             .chunks_exact(OBS_DIM)
             .last()
             .is_some_and(|s| ball_in_a_goal(&config.env, s));
-        episodes.push((rows, t.actions, t.rewards, absorbing));
+        episodes.push(DemoEpisode {
+            obs: as_observed(config, &t.obs),
+            terminated: t.rewards.len() < limit,
+            actions: t.actions,
+            rewards: t.rewards,
+            absorbing,
+        });
     }
-    let demos: Vec<Demonstration<'_>> = episodes
-        .iter()
-        .map(|(obs, actions, rewards, absorbing)| Demonstration {
-            obs,
-            actions,
-            rewards,
-            terminated: rewards.len() < limit,
-            absorbing: *absorbing,
+    Ok(episodes)
+}
+
+/// The table's 38-dim world states `states` (row-major, as `trajectories.bin` holds them)
+/// as the run's agent observes them: read in its ball frame, what its observation hides
+/// hidden.
+pub fn as_observed(config: &RunConfig, states: &[f32]) -> Vec<f32> {
+    states
+        .chunks_exact(OBS_DIM)
+        .flat_map(|s| {
+            let mut row = in_ball_frame(s.try_into().expect("a full row"), config.env.ball_frame);
+            config.env.observation.conceal(&mut row);
+            row
         })
-        .collect();
-    agent
-        .set_demonstrations(&demos)
-        .map(Some)
-        .map_err(|why| format!("{key} = {}: {why}", names(files.paths())))
+        .collect()
 }
 
 /// The episodes of the files `paths`, in order, each with its file and its index there,

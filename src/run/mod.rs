@@ -28,6 +28,7 @@
 //! - [`demonstrations`]: episodes to learn from beside the agent's own
 //!   (`protocol.demonstrations`);
 //! - [`curriculum`]: training episodes begun along a teacher's (`[curriculum]`);
+//! - [`dagger`]: the planner labelling states the learner reaches (`[dagger]`);
 //! - [`log`]: training logs (CSV and TensorBoard);
 //! - [`budget`]: memory and time a run will need, told before it starts;
 //! - [`lock`]: one process at a time trains a run directory;
@@ -36,6 +37,7 @@
 pub mod budget;
 pub mod checkpoint;
 pub mod curriculum;
+pub mod dagger;
 pub mod demonstrations;
 pub mod init;
 pub mod interrupt;

@@ -4,6 +4,7 @@
 
 use super::checkpoint::{self, CheckpointError, LoopState};
 use super::curriculum::{load_teacher, training_envs};
+use super::dagger::Dagger;
 use super::demonstrations::give_demonstrations;
 use super::init::init_networks;
 use super::interrupt;
@@ -222,6 +223,7 @@ pub fn train(
                     best: f64::NEG_INFINITY,
                     log_bytes: vec![0; CSV_FILES.len()],
                     self_play: None,
+                    dagger: None,
                 }
             }
         };
@@ -232,6 +234,10 @@ pub fn train(
             mut best,
             ..
         } = state;
+        let mut dagger = Dagger::start(config, state.dagger.clone()).map_err(TrainError::Init)?;
+        if let Some(d) = &dagger {
+            d.hand(agent.as_mut()).map_err(TrainError::Init)?;
+        }
         let mut log = RunLog::open(
             run_dir,
             &state.log_bytes,
@@ -336,6 +342,10 @@ pub fn train(
                     };
                     report(&progress(steps, event));
                 }
+                if let Some(d) = dagger.as_mut().filter(|d| steps >= d.next_round_at()) {
+                    let round = d.round(agent.as_mut()).map_err(TrainError::Init)?;
+                    log.update(round.metrics(d.label_rows()));
+                }
             }
             let steps = agent.env_steps();
             if let Some(speed) = log.end_window(steps, agent.gradient_steps())? {
@@ -349,6 +359,7 @@ pub fn train(
                 best,
                 log_bytes: log.csv_bytes()?,
                 self_play: self_play.as_ref().map(SelfPlay::state),
+                dagger: dagger.as_ref().map(|d| d.state().clone()),
             };
             checkpoint::write(run_dir, agent.as_ref(), &state)?;
             if let Some(s) = &self_play {

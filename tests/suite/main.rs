@@ -16,6 +16,7 @@ mod architecture;
 mod committed_runs;
 mod config_files;
 mod curriculum;
+mod dagger;
 mod demonstrations;
 mod evaluation;
 mod foosball_env;

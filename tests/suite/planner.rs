@@ -6,7 +6,7 @@
 
 use foosball_rl::env::FoosballConfig;
 use foosball_rl::env::seeding::{TEST_ENVS, derive_seed};
-use foosball_rl::plan::{Outcome, PlannerConfig, follow, search_shared};
+use foosball_rl::plan::{Outcome, PlanStart, PlannerConfig, follow, search_shared};
 use foosball_rl::play::evaluation::PlayedEpisode;
 use foosball_rl::play::planned::{PlanCost, play_planned};
 use foosball_rl::play::scripted::{Baseline, ScriptedPolicy};
@@ -80,7 +80,15 @@ fn a_shared_plan_plays_every_episode_alike_and_scores_on_its_starts_as_searched(
         .iter()
         .filter(|&&s| {
             let mut o = Outcome::default();
-            follow(&mut table, s, &found.plan, 5, None, &mut o).unwrap();
+            follow(
+                &mut table,
+                PlanStart::reset(s),
+                &found.plan,
+                5,
+                None,
+                &mut o,
+            )
+            .unwrap();
             o.scored
         })
         .count();

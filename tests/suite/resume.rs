@@ -140,6 +140,16 @@ fn a_sac_run_on_pixels_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_o
     stopped_mid_epoch_and_resumed("sac", &on_pixels("sac"), None);
 }
 
+/// The interactive teacher's rounds and labels are part of the checkpoint (`demo_share`
+/// lands in `[sac.off_policy]`, the tiny text's last table).
+#[test]
+fn a_sac_run_with_the_interactive_teacher_stopped_and_resumed_ends_as_the_uninterrupted_one() {
+    let teacher = "demo_share = 0.5\n[sac]\nbc_weight = 0.4\n[dagger]\nevery = 75\nepisodes = 2\n\
+                   [dagger.planner]\npopulation = 16\nelites = 4\niterations = 4\n\
+                   max_rollout_steps = 30\n";
+    stopped_mid_epoch_and_resumed("sac", teacher, None);
+}
+
 #[test]
 fn a_td3_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_one() {
     stopped_mid_epoch_and_resumed("td3", "", None);

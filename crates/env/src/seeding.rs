@@ -13,6 +13,7 @@
 //! | [`MATCHES`] | two-sided matches of a league: `index` = the match's number among a pair's |
 //! | [`PLANNER`] | the planner's search for episode `index` of the stream it is tested on |
 //! | [`CURRICULUM`] | which training episodes begin along a teacher's: `run_seed` is the training env's reset seed, `index` 0 |
+//! | [`DAGGER`] | an interactive teacher's round `index`: `derive_seed(run_seed, DAGGER, index)` is the round's own seed, from which its episodes' starts (stream [`DAGGER`]), queried steps and searches derive |
 
 /// Stream of the training environments.
 pub const TRAIN_ENVS: u64 = 1;
@@ -30,6 +31,8 @@ pub const MATCHES: u64 = 6;
 pub const PLANNER: u64 = 7;
 /// Stream of a reverse curriculum's choices of starts (`crate::starts`).
 pub const CURRICULUM: u64 = 8;
+/// Stream of an interactive teacher's rounds (the learner's episodes it relabels).
+pub const DAGGER: u64 = 9;
 
 /// One SplitMix64 output step.
 fn splitmix64(mut z: u64) -> u64 {
