@@ -109,7 +109,9 @@ pub fn time_budget(config: &RunConfig) -> Result<TimeBudget, TrainError> {
     })
 }
 
-/// The budget as one line, with a warning line where the run needs more than a day.
+/// The budget as one line, with a line for the interactive teacher's searches where the
+/// run has one (a ceiling: they are not timed) and a warning line where the run needs more
+/// than a day.
 pub fn describe(config: &RunConfig, time: &TimeBudget, available: Option<f64>) -> String {
     let gib = |b: f64| b / (1u64 << 30) as f64;
     let have = available.map_or(String::new(), |a| {
@@ -125,6 +127,19 @@ pub fn describe(config: &RunConfig, time: &TimeBudget, available: Option<f64>) -
         indicatif::HumanDuration(Duration::from_secs_f64(time.total_s.min(1e12))),
         config.protocol.total_env_steps(),
     );
+    if let Some(d) = &config.dagger {
+        let p = &d.planner;
+        let queries = config.protocol.total_env_steps() / d.every * u64::from(d.episodes);
+        let rollouts = 1 + p.iterations * (p.population - 1);
+        let ceiling =
+            queries as f64 * rollouts as f64 * f64::from(p.max_rollout_steps) * time.env_step_s;
+        out += &format!(
+            "\n# [dagger] adds {queries} searches of at most {rollouts} rollouts of at most {} \
+             agent steps each (each stops at its first goal): at most {} more",
+            p.max_rollout_steps,
+            indicatif::HumanDuration(Duration::from_secs_f64(ceiling.min(1e12))),
+        );
+    }
     if time.total_s > 86_400.0 {
         out += &format!(
             "\n# that is more than a day: try --hidden 64,64 (the CPU path) or a GPU backend \
