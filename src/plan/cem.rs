@@ -120,14 +120,36 @@ pub fn follow<L: EpisodeLog<FoosballEnv>>(
     max_steps: Option<u32>,
     log: &mut L,
 ) -> Result<(), EnvError> {
+    if reach(env, start)? {
+        follow_on(env, plan, segment_steps, max_steps, log)?;
+    }
+    Ok(())
+}
+
+/// Resets `env` from `start.seed` and plays `start.prefix`; false when the episode ended
+/// within it.
+fn reach(env: &mut FoosballEnv, start: PlanStart<'_>) -> Result<bool, EnvError> {
     use foosball_env::Env;
     let mut obs = vec![0.0; env.obs_dim()];
     env.reset_into(Some(start.seed), &mut obs);
     for action in start.prefix {
         if env.step_into(action, &mut obs)?.done() {
-            return Ok(());
+            return Ok(false);
         }
     }
+    Ok(true)
+}
+
+/// [`follow`] from where `env` stands (an episode in progress).
+fn follow_on<L: EpisodeLog<FoosballEnv>>(
+    env: &mut FoosballEnv,
+    plan: &[[f32; ACTION_DIM]],
+    segment_steps: usize,
+    max_steps: Option<u32>,
+    log: &mut L,
+) -> Result<(), EnvError> {
+    use foosball_env::Env;
+    let mut obs = vec![0.0; env.obs_dim()];
     for t in 0.. {
         if max_steps.is_some_and(|m| t >= m) {
             break;
@@ -163,16 +185,20 @@ pub fn search(
     };
     let mut rollouts = 0;
     let mut simulated_steps = 0;
+    // From a state along an episode, each rollout starts on a snapshot of it rather than
+    // replaying the episode's first steps (the same rollouts, to the bit: tested).
+    let snapshot = match start.prefix {
+        [] => None,
+        _ if reach(env, start)? => env.snapshot(),
+        _ => None,
+    };
     let mut rollout = |plan: &Plan| -> Result<Outcome, EnvError> {
         let mut outcome = Outcome::default();
-        follow(
-            env,
-            start,
-            plan,
-            c.segment_steps,
-            Some(c.max_rollout_steps),
-            &mut outcome,
-        )?;
+        let cap = Some(c.max_rollout_steps);
+        match snapshot.as_ref().and_then(FoosballEnv::snapshot) {
+            Some(mut table) => follow_on(&mut table, plan, c.segment_steps, cap, &mut outcome)?,
+            None => follow(env, start, plan, c.segment_steps, cap, &mut outcome)?,
+        }
         rollouts += 1;
         simulated_steps += u64::from(outcome.steps);
         Ok(outcome)

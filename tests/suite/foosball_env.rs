@@ -579,3 +579,45 @@ fn spins_are_counted_and_cost_the_penalty_or_end_the_episode_by_rule() {
     assert_eq!(t.info.spins[0], 1);
     assert!(step < 100, "the first swing fouls, ended at step {step}");
 }
+
+/// A snapshot taken in the middle of an episode (the ball in play, contacts under way)
+/// steps on as the original does, to the bit, under MuJoCo's soft contacts and rapier's,
+/// with a scripted black and a random one.
+#[test]
+fn a_snapshot_steps_on_as_the_table_it_was_taken_from() {
+    for (preset, opponent) in [
+        (Preset::Reference, OpponentKind::Static),
+        (Preset::ReferenceV3, OpponentKind::Random),
+        (Preset::Reference, OpponentKind::Shooter),
+    ] {
+        let mut config = FoosballConfig::preset(preset);
+        config.opponent = opponent;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let mut actions = (0..400)
+            .map(|_| -> [f32; ACTION_DIM] { std::array::from_fn(|_| rng.random_range(-1.0..1.0)) });
+        let mut original = FoosballEnv::new(config).unwrap();
+        let mut checked = 0;
+        for seed in 0..6 {
+            original.reset(Some(seed));
+            for _ in 0..7 {
+                original.step(&actions.next().unwrap()).unwrap();
+            }
+            let mut copy = original.snapshot().expect("a scripted black copies");
+            assert_eq!(copy.state(), original.state());
+            for a in actions.by_ref().take(40) {
+                let (a_obs, a_t) = original.step(&a).unwrap();
+                let (b_obs, b_t) = copy.step(&a).unwrap();
+                assert_eq!(
+                    a_obs, b_obs,
+                    "{preset:?}: step {checked} after the snapshot"
+                );
+                assert_eq!((a_t.reward, a_t.info.end), (b_t.reward, b_t.info.end));
+                checked += 1;
+                if a_t.done() {
+                    break;
+                }
+            }
+        }
+        assert!(checked > 60, "{preset:?}: {checked} steps compared");
+    }
+}

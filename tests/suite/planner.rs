@@ -1,12 +1,14 @@
 //! The planner ([`foosball_rl::plan`]): it finds scoring plans where doing nothing never
 //! scores, its plans replay exactly (the table is deterministic), the same seeds give the
 //! same episodes whatever the thread count, one shared plan plays every episode alike,
-//! earns on its search starts what the search says and can be refined per episode, and
-//! bad budgets are refused by name.
+//! earns on its search starts what the search says and can be refined per episode, a
+//! search from a state along an episode is the same on snapshots as by replaying the
+//! episode's first steps, and bad budgets are refused by name.
 
-use foosball_rl::env::FoosballConfig;
+use foosball_rl::env::layout::{ACTION_DIM, OBS_DIM};
 use foosball_rl::env::seeding::{TEST_ENVS, derive_seed};
-use foosball_rl::plan::{Outcome, PlanStart, PlannerConfig, follow, search_shared};
+use foosball_rl::env::{EnvRng, FoosballConfig, FoosballEnv, Opponent, OpponentKind, Preset};
+use foosball_rl::plan::{Outcome, PlanStart, PlannerConfig, follow, search, search_shared};
 use foosball_rl::play::evaluation::PlayedEpisode;
 use foosball_rl::play::planned::{PlanCost, play_planned};
 use foosball_rl::play::scripted::{Baseline, ScriptedPolicy};
@@ -151,4 +153,40 @@ fn evaluate_refuses_a_planner_budget_by_key_and_for_another_policy() {
         "{err}"
     );
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Black as the static one, but it cannot be copied: a search on its table replays the
+/// episode's first steps for every rollout.
+struct Unforkable;
+
+impl Opponent for Unforkable {
+    fn act(&mut self, _obs: &[f32; OBS_DIM], _rng: &mut EnvRng) -> [f32; ACTION_DIM] {
+        [0.0; ACTION_DIM]
+    }
+}
+
+#[test]
+fn a_search_from_a_state_is_the_same_on_snapshots_as_by_replaying_the_episode() {
+    let mut config = FoosballConfig::preset(Preset::Reference);
+    config.opponent = OpponentKind::Static;
+    let prefix: Vec<[f32; ACTION_DIM]> = (0..6)
+        .map(|i| std::array::from_fn(|k| (0.13 * (i + k) as f32).sin()))
+        .collect();
+    let start = PlanStart {
+        seed: 11,
+        prefix: &prefix,
+    };
+    let planner = PlannerConfig {
+        population: 16,
+        elites: 4,
+        iterations: 3,
+        stop_when_scored: false,
+        ..PlannerConfig::default()
+    };
+    let mut snapshots = FoosballEnv::new(config.clone()).unwrap();
+    let mut replays = FoosballEnv::with_opponent(config, Box::new(Unforkable)).unwrap();
+    let on_snapshots = search(&mut snapshots, start, 3, &planner, None).unwrap();
+    let by_replay = search(&mut replays, start, 3, &planner, None).unwrap();
+    assert_eq!(on_snapshots, by_replay);
+    assert_eq!(on_snapshots.rollouts, 1 + 3 * 15);
 }

@@ -254,6 +254,25 @@ impl FoosballEnv {
         self
     }
 
+    /// A copy of this env in its current state (table, episode, random streams, opponent)
+    /// that steps on exactly as this one would given the same actions: the planner's
+    /// searches start their rollouts from one instead of replaying an episode's first
+    /// steps. `None` where the opponent cannot be copied (a learned policy's). The copy
+    /// chooses its next starts itself (no [`EpisodeStarts`]).
+    pub fn snapshot(&self) -> Option<Self> {
+        Some(Self {
+            config: self.config.clone(),
+            frames: self.frames.clone(),
+            rng: self.rng.clone(),
+            opponent: self.opponent.fork()?,
+            table: self.table.clone(),
+            episode: self.episode.clone(),
+            starts: None,
+            own_rng: self.own_rng.clone(),
+            agent_steps: self.agent_steps,
+        })
+    }
+
     /// The settings this environment runs with.
     pub fn config(&self) -> &FoosballConfig {
         &self.config

@@ -19,6 +19,12 @@ pub trait Opponent: Send {
     /// environment's own stream): an opponent that picks who plays the episode draws here.
     fn reset(&mut self, _rng: &mut EnvRng) {}
 
+    /// A copy in its current state, for a snapshot of the table it plays on
+    /// ([`crate::FoosballEnv::snapshot`]); `None` (the default) where it cannot be copied.
+    fn fork(&self) -> Option<Box<dyn Opponent>> {
+        None
+    }
+
     /// Its actions are written for the linear map (a fraction of each joint's range), as
     /// hand-written controllers are: the env translates them into its own `action_map`
     /// ([`crate::config::ActionMap::from_linear`]). False (the default): they are in the
@@ -49,6 +55,10 @@ pub trait Opponent: Send {
 pub struct StaticOpponent;
 
 impl Opponent for StaticOpponent {
+    fn fork(&self) -> Option<Box<dyn Opponent>> {
+        Some(Box::new(*self))
+    }
+
     fn act(&mut self, _obs: &[f32; OBS_DIM], _rng: &mut EnvRng) -> [f32; ACTION_DIM] {
         [0.0; ACTION_DIM]
     }
@@ -59,6 +69,10 @@ impl Opponent for StaticOpponent {
 pub struct RandomOpponent;
 
 impl Opponent for RandomOpponent {
+    fn fork(&self) -> Option<Box<dyn Opponent>> {
+        Some(Box::new(*self))
+    }
+
     fn act(&mut self, _obs: &[f32; OBS_DIM], rng: &mut EnvRng) -> [f32; ACTION_DIM] {
         core::array::from_fn(|_| rng.random_range(-1.0..=1.0))
     }
@@ -78,6 +92,10 @@ impl ScriptedOpponent {
 }
 
 impl Opponent for ScriptedOpponent {
+    fn fork(&self) -> Option<Box<dyn Opponent>> {
+        Some(Box::new(*self))
+    }
+
     fn linear_actions(&self) -> bool {
         true
     }

@@ -95,6 +95,10 @@ fn aim(obs: &[f32; OBS_DIM], ball: (f32, f32)) -> f32 {
 }
 
 impl Opponent for Kicker {
+    fn fork(&self) -> Option<Box<dyn Opponent>> {
+        Some(Box::new(*self))
+    }
+
     fn linear_actions(&self) -> bool {
         true
     }

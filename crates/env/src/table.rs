@@ -133,6 +133,43 @@ struct Rod {
     men: Vec<(ColliderHandle, Vector, f32)>,
 }
 
+/// A copy of `world` in its state: bodies, colliders, joints, islands, the broad and
+/// narrow phases (contacts with their warm-start impulses); the pipelines and the CCD
+/// solver, workspaces only (rapier's `PhysicsWorld` docs), start empty. A copy steps on as
+/// the original does, to the bit (`crate::foosball`'s tests).
+fn copy_world(w: &PhysicsWorld) -> PhysicsWorld {
+    PhysicsWorld {
+        gravity: w.gravity,
+        integration_parameters: w.integration_parameters,
+        physics_pipeline: PhysicsPipeline::new(),
+        collision_pipeline: CollisionPipeline::new(),
+        islands: w.islands.clone(),
+        broad_phase: w.broad_phase.clone(),
+        narrow_phase: w.narrow_phase.clone(),
+        bodies: w.bodies.clone(),
+        colliders: w.colliders.clone(),
+        impulse_joints: w.impulse_joints.clone(),
+        multibody_joints: w.multibody_joints.clone(),
+        soft_bodies: w.soft_bodies.clone(),
+        ccd_solver: CCDSolver::new(),
+    }
+}
+
+impl Clone for Table {
+    /// The table in its current state ([`copy_world`]).
+    fn clone(&self) -> Self {
+        Self {
+            world: copy_world(&self.world),
+            ball: self.ball,
+            rods: self.rods.clone(),
+            targets: self.targets,
+            ball_drag: self.ball_drag,
+            integrator: self.integrator,
+            soft_contact: self.soft_contact,
+        }
+    }
+}
+
 /// The simulated table.
 pub struct Table {
     world: PhysicsWorld,
