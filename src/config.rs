@@ -4,7 +4,7 @@
 
 use crate::plan::PlannerConfig;
 use foosball_algos::{NetConfig, OffPolicyConfig, PpoConfig, SacConfig, Td3Config};
-use foosball_env::{ConfigError, FoosballConfig, ObservationKind, OpponentKind};
+use foosball_env::{ConfigError, FoosballConfig, ObservationKind, OpponentKind, Serve};
 use foosball_nets::Backend;
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
@@ -239,6 +239,12 @@ pub struct SelfPlayConfig {
     /// the learner meets it when it plays black in a match. Default 0 (every serve
     /// the learner's, as in the paper).
     pub black_serve_share: f32,
+    /// Who serves the training episodes' balls (`env.start.serve` of the learner's
+    /// table): `drawn` by `black_serve_share` (default), or `conceded`, as a match
+    /// serves: after a goal the side scored upon, after a dead ball the side that served
+    /// it, across a training env's episodes and the points of a `serve_again` one.
+    #[serde(skip_serializing_if = "Serve::is_drawn")]
+    pub serve: Serve,
     /// Training episodes played like a match (`env.rules.serve_again` on the learner's
     /// table): a goal, a dead ball or a ball without progress serves again, and the
     /// episode ends at `episode_steps`. Default false (the paper's episode: a still ball
@@ -267,6 +273,7 @@ impl Default for SelfPlayConfig {
             conceded_penalty: 1000.0,
             no_progress_end: false,
             black_serve_share: 0.0,
+            serve: Serve::Drawn,
             serve_again: false,
             episode_steps: None,
         }
@@ -292,6 +299,15 @@ impl SelfPlayConfig {
             if !(0.0..=1.0).contains(&v) {
                 return Err(err(key, format!("must be in [0, 1], got {v}")));
             }
+        }
+        if self.serve == Serve::Conceded && self.black_serve_share != 0.0 {
+            return Err(err(
+                "black_serve_share",
+                format!(
+                    "{} draws the serving side: leave it at 0 under self_play.serve = \"conceded\"",
+                    self.black_serve_share
+                ),
+            ));
         }
         if self.latest_share + self.anchor_share > 1.0 {
             return Err(err(

@@ -14,7 +14,8 @@
 //!   (black attacks the other way; with it, an episode ends 15 steps into any attack of
 //!   black's and the learner never sees a goal against it), a `black_serve_share` of the
 //!   serves turned 180 degrees onto black's side (black's kick-off, which the learner meets
-//!   as black in every other match); under `serve_again` every point's end (a goal, a dead
+//!   as black in every other match), or under `serve = "conceded"` every ball served as a
+//!   match serves it (the side scored upon); under `serve_again` every point's end (a goal, a dead
 //!   ball) serves again and the episode runs to `episode_steps`, as a match does;
 //!   everything else (reward, other ends) as configured.
 //!   Evaluations and the test still play `env.opponent`, so curves stay comparable.
@@ -75,7 +76,8 @@ pub struct SelfPlay {
 
 /// `env` as the learner plays it in self-play (module docs): black's goals count against
 /// it; no "no progress" end unless `sp.no_progress_end`; a `sp.black_serve_share` of the
-/// serves on black's side; `sp.serve_again` and `sp.episode_steps` as the table's.
+/// serves on black's side, or served as a match under `sp.serve = "conceded"`;
+/// `sp.serve_again` and `sp.episode_steps` as the table's.
 pub fn self_play_table(env: &FoosballConfig, sp: &SelfPlayConfig) -> FoosballConfig {
     let mut t = symmetric_goals(env);
     t.reward.conceded_penalty = sp.conceded_penalty;
@@ -83,6 +85,7 @@ pub fn self_play_table(env: &FoosballConfig, sp: &SelfPlayConfig) -> FoosballCon
         t.rules.no_progress_steps = u32::MAX;
     }
     t.start.black_share = sp.black_serve_share;
+    t.start.serve = sp.serve;
     t.rules.serve_again = sp.serve_again;
     if let Some(steps) = sp.episode_steps {
         t.max_episode_steps = steps;

@@ -8,7 +8,7 @@ use foosball_rl::env::layout::{
 };
 use foosball_rl::env::{
     EndReason, Env, EnvError, EnvRng, FoosballConfig, FoosballEnv, OpponentKind, Preset,
-    ResetOptions,
+    ResetOptions, Serve,
 };
 use rand::{Rng, SeedableRng};
 
@@ -321,6 +321,77 @@ fn under_serve_again_goals_are_counted_and_served_again() {
         (last.info.goals, last.info.end),
         ([0, 1], Some(EndReason::TimeLimit))
     );
+}
+
+/// Under `start.serve = "conceded"` the side scored upon serves the next ball, a dead
+/// ball is served again by the side that served it, a seeded reset serves yellow's; the
+/// serves far up or down the table (start y ~ -20 cm, black's mirrored to +20) say whose.
+#[test]
+fn under_the_conceded_serve_rule_the_side_scored_upon_serves_next() {
+    let mut config = end_on_goal();
+    config.rules.no_progress_steps = 1000;
+    config.start.serve = Serve::Conceded;
+    (config.start.y_mean, config.start.y_std) = (-20.0, 0.1);
+    let served_by_black = |obs: &[f32]| {
+        let y = obs[BALL_POS.start + 1];
+        assert!(y.abs() > 15.0, "a serve near the centre: {y}");
+        y > 0.0
+    };
+    let shoot = |env: &mut FoosballEnv, into_blacks: bool| {
+        let (y, v) = if into_blacks {
+            (42.0, 300.0)
+        } else {
+            (-42.0, -300.0)
+        };
+        env.table_mut()
+            .unwrap()
+            .set_ball([5.0, y, BALL_RADIUS], [0.0, v, 0.0]);
+        play_out(env, 100).last().unwrap().info.end
+    };
+    let mut env = FoosballEnv::new(config.clone()).unwrap();
+    assert!(!served_by_black(&env.reset(Some(1))), "the first serve");
+    assert_eq!(shoot(&mut env, true), Some(EndReason::Scored));
+    assert!(
+        served_by_black(&env.reset(None)),
+        "yellow scored: black serves"
+    );
+    let dead = play_out(&mut env, 100).last().unwrap().info.end;
+    assert_eq!(dead, Some(EndReason::Stagnant));
+    assert!(
+        served_by_black(&env.reset(None)),
+        "a dead ball: black again"
+    );
+    assert_eq!(shoot(&mut env, false), Some(EndReason::Conceded));
+    assert!(
+        !served_by_black(&env.reset(None)),
+        "black scored: yellow serves"
+    );
+    assert_eq!(shoot(&mut env, true), Some(EndReason::Scored));
+    assert!(
+        !served_by_black(&env.reset(Some(2))),
+        "a seeded reset: yellow"
+    );
+    // Within a `serve_again` episode too.
+    let mut env = FoosballEnv::new(serving(config.clone(), 200)).unwrap();
+    env.reset(Some(1));
+    env.table_mut()
+        .unwrap()
+        .set_ball([5.0, 42.0, BALL_RADIUS], [0.0, 300.0, 0.0]);
+    let mut obs = Vec::new();
+    while obs.is_empty() {
+        let (o, t) = env.step(&NEUTRAL).unwrap();
+        if t.info.serves == 1 {
+            obs = o;
+        }
+    }
+    assert!(
+        served_by_black(&obs),
+        "the point's goal: black serves the next ball"
+    );
+    // Drawing the side beside the rule is refused.
+    config.start.black_share = 0.5;
+    let e = FoosballEnv::new(config).err().unwrap().to_string();
+    assert!(e.contains("start.black_share"), "{e}");
 }
 
 #[test]

@@ -158,6 +158,14 @@ fn bad_self_play_settings_are_refused_by_key() {
             "tiny.toml:19: unknown variant `goalie`",
         ),
         ("[self_play]\nsnapshots = 3\n", "snapshots"),
+        (
+            "[self_play]\nserve = \"conceded\"\nblack_serve_share = 0.5\n",
+            "self_play.black_serve_share",
+        ),
+        (
+            "[self_play]\nserve = \"winner\"\n",
+            "unknown variant `winner`",
+        ),
     ] {
         let err = RunConfig::from_toml(&(base.clone() + section), Path::new("tiny.toml"))
             .unwrap_err()
@@ -224,10 +232,12 @@ fn a_run_starts_from_saved_networks_and_refuses_ones_that_do_not_fit() {
 }
 
 /// The learner's table: black's goals count (the own-goal line mirrored), the conceded
-/// penalty as configured, the "no progress" end off unless kept, black's serves as set.
+/// penalty as configured, the "no progress" end off unless kept, black's serves and the
+/// serve rule as set.
 #[test]
 fn the_self_play_table_counts_black_s_goals_and_drops_no_progress_unless_kept() {
     use foosball_rl::config::SelfPlayConfig;
+    use foosball_rl::env::Serve;
     use foosball_rl::self_play::self_play_table;
     let c = config(1);
     let sp = SelfPlayConfig {
@@ -267,6 +277,15 @@ fn the_self_play_table_counts_black_s_goals_and_drops_no_progress_unless_kept() 
     );
     assert!(match_like.rules.serve_again);
     assert_eq!(match_like.max_episode_steps, 2500);
+    assert_eq!(match_like.start.serve, Serve::Drawn);
+    let as_a_match = self_play_table(
+        &c.env,
+        &SelfPlayConfig {
+            serve: Serve::Conceded,
+            ..SelfPlayConfig::default()
+        },
+    );
+    assert_eq!(as_a_match.start.serve, Serve::Conceded);
 }
 
 /// `start.black_share`: a served episode's ball lies at the mirror image (world (x, y) ->

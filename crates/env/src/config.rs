@@ -603,6 +603,30 @@ pub struct StartConfig {
     /// (world (x, y) -> (-x, -y)): the ball starts on black's side, black to play it.
     /// Default 0 (the paper's serve, and no extra draw from the episode's stream).
     pub black_share: f32,
+    /// Which side serves: drawn by `black_share` (default) or as a match serves.
+    #[serde(default, skip_serializing_if = "Serve::is_drawn")]
+    pub serve: Serve,
+}
+
+/// Which side serves each ball of an env's episodes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Serve {
+    /// Drawn per serve: black's in a `start.black_share` of them.
+    #[default]
+    Drawn,
+    /// ITSF's rule, as a match serves: after a goal the side scored upon serves, after a
+    /// dead ball (or any other end) the side that served it; the first serve after a
+    /// seeded reset is yellow's. It holds across an env's episodes (a vector env's
+    /// automatic resets) and across the points of a `rules.serve_again` episode.
+    Conceded,
+}
+
+impl Serve {
+    /// The default rule (left out of written configs).
+    pub fn is_drawn(&self) -> bool {
+        *self == Serve::Drawn
+    }
 }
 
 impl Default for StartConfig {
@@ -613,6 +637,7 @@ impl Default for StartConfig {
             y_mean: -0.1,
             y_std: 0.5,
             black_share: 0.0,
+            serve: Serve::Drawn,
         }
     }
 }
@@ -942,6 +967,15 @@ impl FoosballConfig {
             return Err(ConfigError::new(
                 "start.black_share",
                 format!("must be a share in [0, 1], got {}", self.start.black_share),
+            ));
+        }
+        if self.start.serve == Serve::Conceded && self.start.black_share != 0.0 {
+            return Err(ConfigError::new(
+                "start.black_share",
+                format!(
+                    "{} draws the serving side: leave it at 0 under start.serve = \"conceded\"",
+                    self.start.black_share
+                ),
             ));
         }
         positive("ball.mass", self.ball.mass)?;

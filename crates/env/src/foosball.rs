@@ -18,7 +18,9 @@ use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
 use crate::EnvRng;
-use crate::config::{ActionMap, BallFrame, ConfigError, EpisodeRules, FoosballConfig, SpinRule};
+use crate::config::{
+    ActionMap, BallFrame, ConfigError, EpisodeRules, FoosballConfig, Serve, SpinRule,
+};
 use crate::env::{Env, EnvError, StepInfo, Transition, check_action};
 use crate::geometry::{self, NUM_RODS, Team};
 use crate::layout::{
@@ -208,6 +210,8 @@ pub struct FoosballEnv {
     own_rng: Option<EnvRng>,
     /// Agent steps taken since the env was built (replayed steps not counted).
     agent_steps: u64,
+    /// The side that serves next under `start.serve = "conceded"`.
+    server: Team,
 }
 
 fn uniform(rng: &mut EnvRng, [lo, hi]: [f32; 2]) -> f32 {
@@ -244,6 +248,7 @@ impl FoosballEnv {
             starts: None,
             own_rng: None,
             agent_steps: 0,
+            server: Team::Yellow,
         })
     }
 
@@ -270,6 +275,7 @@ impl FoosballEnv {
             starts: None,
             own_rng: self.own_rng.clone(),
             agent_steps: self.agent_steps,
+            server: self.server,
         })
     }
 
@@ -409,9 +415,10 @@ impl FoosballEnv {
     fn start_episode(&mut self, seed: Option<u64>, ball: Option<[f32; 2]>, obs: &mut [f32]) {
         if let Some(seed) = seed {
             self.rng = EnvRng::seed_from_u64(seed);
+            self.server = Team::Yellow;
         }
         let draw = self.draw_episode();
-        let drawn = serve_point(&self.config, &mut self.rng);
+        let drawn = serve_point(&self.config, self.server, &mut self.rng);
         let [x, y] = ball.unwrap_or(drawn);
         let table = Table::new(&draw.physics, [x, y]);
         let state = Self::observe(&table);
@@ -747,9 +754,18 @@ impl FoosballEnv {
             reward -= rw.conceded_penalty;
         }
         reward -= spin_penalty;
+        if self.config.start.serve == Serve::Conceded && (serve || end.is_some()) {
+            // The side scored upon serves the next ball; after a dead ball, the same side.
+            if in_goal {
+                self.server = Team::Black;
+            } else if in_own_goal {
+                self.server = Team::Yellow;
+            }
+        }
         if serve {
             // A match's serve: a fresh table (rods at neutral) with the episode's physics.
-            *table = Table::new(&ep.draw.physics, serve_point(&self.config, &mut self.rng));
+            let point = serve_point(&self.config, self.server, &mut self.rng);
+            *table = Table::new(&ep.draw.physics, point);
             state = Self::observe(table);
             ep.serves += 1;
             ep.stagnant_steps = 0;
@@ -791,14 +807,18 @@ fn ball_centre_limits() -> [f32; 2] {
     ]
 }
 
-/// Where a serve puts the ball (world x, y, cm): drawn from `config.start` (in a
-/// `black_share` of the serves turned 180 degrees about the centre), kept on the field.
-fn serve_point(config: &FoosballConfig, rng: &mut EnvRng) -> [f32; 2] {
+/// Where a serve puts the ball (world x, y, cm): drawn from `config.start`, turned 180
+/// degrees about the centre where black serves (in a `black_share` of the serves, or when
+/// `server` is black under `start.serve = "conceded"`), kept on the field.
+fn serve_point(config: &FoosballConfig, server: Team, rng: &mut EnvRng) -> [f32; 2] {
     let s = &config.start;
     let [x_mean, y_mean] = config.start_world();
     let [limit_x, limit_y] = ball_centre_limits();
     let x = (x_mean + s.x_std * gaussian(rng)).clamp(-limit_x, limit_x);
     let y = (y_mean + s.y_std * gaussian(rng)).clamp(-limit_y, limit_y);
-    let black_serves = s.black_share > 0.0 && rng.random::<f32>() < s.black_share;
+    let black_serves = match s.serve {
+        Serve::Conceded => server == Team::Black,
+        Serve::Drawn => s.black_share > 0.0 && rng.random::<f32>() < s.black_share,
+    };
     if black_serves { [-x, -y] } else { [x, y] }
 }

@@ -41,7 +41,9 @@ pub mod starts;
 pub mod table;
 pub mod vec_env;
 
-pub use config::{ConfigError, FoosballConfig, OpponentKind, Preset, Randomization, RodMount};
+pub use config::{
+    ConfigError, FoosballConfig, OpponentKind, Preset, Randomization, RodMount, Serve,
+};
 pub use env::{Env, EnvError, StepInfo, Transition};
 pub use foosball::{EndReason, FoosballEnv, FoosballInfo, ResetOptions, ball_in_a_goal};
 pub use observation::{ObservationConfig, ObservationKind};
