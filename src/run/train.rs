@@ -204,7 +204,10 @@ pub fn train(
     pool.install(|| {
         let device = device(config)?;
         let mut agent = build_agent(config, &device);
-        give_demonstrations(config, agent.as_mut()).map_err(TrainError::Init)?;
+        // With `[dagger]` the teacher hands the files with its labels (below), once.
+        if config.dagger.is_none() {
+            give_demonstrations(config, agent.as_mut()).map_err(TrainError::Init)?;
+        }
         let teacher = load_teacher(config).map_err(TrainError::Init)?;
         let state = match start {
             Start::Resume => {
