@@ -416,14 +416,28 @@ impl AlgoConfig {
     }
 }
 
+/// How the starts of a `[curriculum]` move back from the teacher's goals.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CurriculumSchedule {
+    /// On a clock: linearly with the run's env steps, the teacher's own start at `whole_at`.
+    #[default]
+    Clock,
+    /// On the learner's success (Salimans and Chen's rule): `advance` agent steps further
+    /// back each time the learner scored in at least `success_rate` of the last `window`
+    /// episodes begun on the teacher's.
+    Success,
+}
+
 /// Training episodes begun along a teacher's scoring episodes (`[curriculum]`, issue 49's
 /// reverse curriculum; absent: every training episode from the table's own start). A share
 /// of the training episodes starts on one of the teacher's episodes (drawn uniformly among
 /// those that score), a number of agent steps before its goal that grows during the run:
-/// `first_back` steps at the start, the teacher's whole episode from `whole_at` of the
-/// run's env steps on. The point is reached exactly, by replaying the teacher's actions
-/// from its episode's seed ([`foosball_env::starts`]). Evaluations and the test start as
-/// without it.
+/// `first_back` steps at the start, then further back by `schedule`: on a clock, the
+/// teacher's whole episode from `whole_at` of the run's env steps on; or as the learner
+/// succeeds from where it begins. The point is reached exactly, by replaying the teacher's
+/// actions from its episode's seed ([`foosball_env::starts`]). Evaluations and the test
+/// start as without it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CurriculumConfig {
@@ -436,9 +450,21 @@ pub struct CurriculumConfig {
     /// Agent steps before the teacher's goal where those episodes begin at the run's start
     /// (at least 1).
     pub first_back: u32,
+    /// How the starts move back: `"clock"` (by `whole_at`) or `"success"` (by
+    /// `success_rate`, `window` and `advance`).
+    pub schedule: CurriculumSchedule,
     /// Fraction of the run's env steps, in (0, 1], from which they begin at the teacher's
-    /// own start; the distance to the goal grows linearly until then.
+    /// own start; the distance to the goal grows linearly until then (`schedule = "clock"`).
     pub whole_at: f64,
+    /// Share of the last `window` teacher-begun episodes, in (0, 1], in which the learner
+    /// must score for the starts to move back (`schedule = "success"`).
+    pub success_rate: f64,
+    /// Teacher-begun episodes judged together, at least 1 (`schedule = "success"`): after
+    /// each `window` of them the starts move back or stay.
+    pub window: u32,
+    /// Agent steps the starts move back by at each success, at least 1
+    /// (`schedule = "success"`).
+    pub advance: u32,
 }
 
 impl Default for CurriculumConfig {
@@ -447,7 +473,11 @@ impl Default for CurriculumConfig {
             trajectories: DemonstrationFiles::Many(Vec::new()),
             share: 0.5,
             first_back: 5,
+            schedule: CurriculumSchedule::Clock,
             whole_at: 0.5,
+            success_rate: 0.5,
+            window: 20,
+            advance: 2,
         }
     }
 }
@@ -477,6 +507,18 @@ impl CurriculumConfig {
                 "whole_at",
                 format!("must be in (0, 1], got {}", self.whole_at),
             ));
+        }
+        if !(self.success_rate > 0.0 && self.success_rate <= 1.0) {
+            return Err(err(
+                "success_rate",
+                format!("must be in (0, 1], got {}", self.success_rate),
+            ));
+        }
+        if self.window == 0 {
+            return Err(err("window", "must be at least 1".into()));
+        }
+        if self.advance == 0 {
+            return Err(err("advance", "must be at least 1".into()));
         }
         Ok(())
     }
@@ -693,12 +735,14 @@ pub enum ConfigFileError {
         source: std::io::Error,
     },
     /// The file is not valid TOML or does not fit the schema (unknown key, wrong type).
-    #[error("{path}:{line}: {message}")]
+    #[error("{path}:{line}: {}{message}", key.as_ref().map_or(String::new(), |k| format!("{k}: ")))]
     Parse {
         /// The file.
         path: PathBuf,
         /// 1-based line of the offending text.
         line: usize,
+        /// The dotted key written on that line, if it assigns one.
+        key: Option<String>,
         /// The parser's message.
         message: String,
     },
@@ -783,10 +827,14 @@ impl RunConfig {
     /// Parses and checks TOML `text`; `path` names it in errors.
     pub fn from_toml(text: &str, path: &Path) -> Result<Self, ConfigFileError> {
         let text = &*migrate_legacy_keys(text);
-        let file: RunConfigFile = toml::from_str(text).map_err(|e| ConfigFileError::Parse {
-            path: path.to_path_buf(),
-            line: e.span().map_or(1, |s| line_at(text, s.start)),
-            message: e.message().trim().to_string(),
+        let file: RunConfigFile = toml::from_str(text).map_err(|e| {
+            let line = e.span().map_or(1, |s| line_at(text, s.start));
+            ConfigFileError::Parse {
+                path: path.to_path_buf(),
+                line,
+                key: key_on_line(text, line),
+                message: e.message().trim().to_string(),
+            }
         })?;
         let invalid = |e: ConfigError| ConfigFileError::Invalid {
             path: path.to_path_buf(),
@@ -1034,6 +1082,27 @@ pub(crate) fn migrate_legacy_keys(text: &str) -> Cow<'_, str> {
 /// 1-based line of byte offset `at`.
 fn line_at(text: &str, at: usize) -> usize {
     text[..at.min(text.len())].matches('\n').count() + 1
+}
+
+/// The dotted key that 1-based `line` of `text` assigns (under the nearest `[table]`
+/// header above it), if it assigns one.
+fn key_on_line(text: &str, line: usize) -> Option<String> {
+    let lines: Vec<&str> = text.lines().collect();
+    let (key, _) = lines.get(line.checked_sub(1)?)?.split_once('=')?;
+    let key = key.trim();
+    if key.is_empty() || key.starts_with(['#', '[']) {
+        return None;
+    }
+    let table = lines[..line - 1]
+        .iter()
+        .map(|l| l.trim())
+        .rfind(|l| l.starts_with('['))
+        .and_then(|h| h.trim_start_matches('[').split(']').next())
+        .map(str::trim);
+    Some(match table {
+        Some(t) if !t.is_empty() => format!("{t}.{key}"),
+        _ => key.to_string(),
+    })
 }
 
 /// 1-based line where the dotted `key` is written (or its deepest written parent).

@@ -9,6 +9,7 @@
 //! checkpoint (see [`crate::run::train`]), so no physics state needs saving.
 
 use crate::files::RunFileError;
+use crate::run::curriculum::CurriculumState;
 use crate::run::dagger::DaggerState;
 use crate::self_play::pool::PoolState;
 use foosball_algos::{Agent, AgentError};
@@ -40,6 +41,8 @@ pub struct LoopState {
     pub self_play: Option<PoolState>,
     /// An interactive teacher's rounds and labels; `None` without `[dagger]`.
     pub dagger: Option<DaggerState>,
+    /// A curriculum's distance and window under `schedule = "success"`; `None` otherwise.
+    pub curriculum: Option<CurriculumState>,
 }
 
 impl LoopState {
@@ -55,6 +58,9 @@ impl LoopState {
         if let Some(dagger) = &self.dagger {
             dagger.save(snap);
         }
+        if let Some(curriculum) = &self.curriculum {
+            curriculum.save(snap);
+        }
     }
 
     fn load(snap: &Snapshot<'_>) -> Result<Self, SnapshotError> {
@@ -66,6 +72,7 @@ impl LoopState {
             log_bytes: snap.u64s("loop.log_bytes")?.to_vec(),
             self_play: PoolState::load(snap)?,
             dagger: DaggerState::load(snap)?,
+            curriculum: CurriculumState::load(snap)?,
         })
     }
 }

@@ -3,7 +3,7 @@
 //! (resumable), then the test phase.
 
 use super::checkpoint::{self, CheckpointError, LoopState};
-use super::curriculum::{load_teacher, training_envs};
+use super::curriculum::{SuccessSchedule, load_teacher, training_envs};
 use super::dagger::Dagger;
 use super::demonstrations::give_demonstrations;
 use super::init::init_networks;
@@ -227,6 +227,7 @@ pub fn train(
                     log_bytes: vec![0; CSV_FILES.len()],
                     self_play: None,
                     dagger: None,
+                    curriculum: None,
                 }
             }
         };
@@ -259,10 +260,18 @@ pub fn train(
             )?),
             None => None,
         };
+        let mut schedule =
+            SuccessSchedule::start(config, teacher.as_ref(), state.curriculum.clone());
         let envs = match &self_play {
             Some(s) => s.envs(n)?,
-            None => training_envs(config, teacher.as_ref(), n, agent.env_steps())
-                .map_err(TrainError::Init)?,
+            None => training_envs(
+                config,
+                teacher.as_ref(),
+                schedule.as_ref(),
+                n,
+                agent.env_steps(),
+            )
+            .map_err(TrainError::Init)?,
         };
         let envs = VecEnv::new(envs, threads)?;
         let mut collector = Collector::with_seeds(envs, &restart_seeds(p.seed, done, n));
@@ -287,6 +296,9 @@ pub fn train(
                     log.episode(steps, e, info);
                     if let Some(s) = &self_play {
                         s.on_episode(i, info);
+                    }
+                    if let Some(m) = schedule.as_mut().and_then(|s| s.on_episode(info)) {
+                        log.update(m);
                     }
                 };
                 let update = if steps + n as u64 >= end {
@@ -363,6 +375,7 @@ pub fn train(
                 log_bytes: log.csv_bytes()?,
                 self_play: self_play.as_ref().map(SelfPlay::state),
                 dagger: dagger.as_ref().map(|d| d.state().clone()),
+                curriculum: schedule.as_ref().map(SuccessSchedule::state),
             };
             checkpoint::write(run_dir, agent.as_ref(), &state)?;
             if let Some(s) = &self_play {

@@ -109,8 +109,7 @@ fn error(text: &str) -> String {
 #[test]
 fn an_unknown_key_names_the_file_the_line_and_the_key() {
     let e = error("algo = \"sac\"\n\n[sac.net]\nhiden = [64]\n");
-    assert!(e.starts_with("bad.toml:4:"), "{e}");
-    assert!(e.contains("hiden"), "{e}");
+    assert!(e.starts_with("bad.toml:4: sac.net.hiden: "), "{e}");
 }
 
 #[test]
@@ -135,7 +134,7 @@ fn malformed_files_and_wrong_sections_are_refused() {
     );
     let e = error("algo = \"sac\"\n[protocol]\ntest_actions = \"greedy\"\n");
     assert!(
-        e.starts_with("bad.toml:3:")
+        e.starts_with("bad.toml:3: protocol.test_actions: ")
             && e.contains("`greedy`, expected `deterministic` or `stochastic`"),
         "{e}"
     );

@@ -86,7 +86,9 @@ fn in_goal_after_one_step(text: &str, resets: usize) -> usize {
     let mut c = RunConfig::from_toml(text, Path::new("t.toml")).unwrap();
     c.protocol.steps_per_epoch = 1_000_000;
     let teacher = load_teacher(&c).unwrap();
-    let mut env = training_envs(&c, teacher.as_ref(), 1, 0).unwrap().remove(0);
+    let mut env = training_envs(&c, teacher.as_ref(), None, 1, 0)
+        .unwrap()
+        .remove(0);
     env.reset(Some(1));
     (0..resets)
         .filter(|_| {
@@ -170,6 +172,10 @@ fn a_curriculum_that_does_not_fit_the_run_is_refused_by_key() {
         ("share = 1.5\n", "curriculum.share"),
         ("first_back = 0\n", "curriculum.first_back"),
         ("whole_at = 0.0\n", "curriculum.whole_at"),
+        ("success_rate = 0.0\n", "curriculum.success_rate"),
+        ("window = 0\n", "curriculum.window"),
+        ("advance = 0\n", "curriculum.advance"),
+        ("schedule = \"sometimes\"\n", "curriculum.schedule"),
     ] {
         let e = err(config_text(Some(&teacher_lines(&teacher, lines))));
         assert!(e.contains(key), "{e}");
@@ -178,4 +184,49 @@ fn a_curriculum_that_does_not_fit_the_run_is_refused_by_key() {
     assert!(e.contains("curriculum.trajectories"), "{e}");
     let e = err(config_text(Some(&teacher_lines(&teacher, ""))) + "[self_play]\n");
     assert!(e.contains("curriculum") && e.contains("self_play"), "{e}");
+}
+
+/// The `train/curriculum_back` values of a run's `scalars.csv`, one per log window.
+fn logged_backs(run: &Path) -> Vec<f64> {
+    std::fs::read_to_string(run.join("scalars.csv"))
+        .unwrap()
+        .lines()
+        .filter(|l| l.contains(",train/curriculum_back,"))
+        .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
+        .collect()
+}
+
+/// `schedule = "success"`: begun one step before the teacher's goals, where the ball goes
+/// in whatever the learner does, the starts move back as the learner keeps scoring from
+/// them; the run reproduces, and one
+/// stopped and resumed ends as the uninterrupted one (the distance and the window so far
+/// are in the checkpoint).
+#[test]
+fn starts_move_back_as_the_learner_succeeds_from_them() {
+    let dir = scratch("curriculum-success");
+    let teacher = record(&dir, ScriptedPolicy::Planner, 1000, 3);
+    let lines = |rate: f64| {
+        teacher_lines(
+            &teacher,
+            &format!(
+                "share = 1.0\nfirst_back = 1\nschedule = \"success\"\nwindow = 2\n\
+                 success_rate = {rate}\nadvance = 1\n"
+            ),
+        )
+    };
+    let text = config_text(Some(&lines(0.5)));
+    let (metrics, _) = run(&dir, "success", &text).unwrap();
+    let backs = logged_backs(&dir.join("success"));
+    assert!(!backs.is_empty(), "no train/curriculum_back rows");
+    assert!(backs[0] >= 1.0, "first_back at first: {backs:?}");
+    assert!(
+        backs.last().unwrap() > &backs[0],
+        "the starts never moved back: {backs:?}"
+    );
+    assert_eq!(run(&dir, "success-again", &text).unwrap().0, metrics);
+    let resumable = tiny_config_text("sac", 3, 150)
+        .replace("max_episode_steps = 30", "max_episode_steps = 120")
+        + "[curriculum]\n"
+        + &lines(0.5);
+    crate::resume::stopped_and_resumed("curriculum-success", &resumable, None);
 }

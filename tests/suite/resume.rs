@@ -83,9 +83,15 @@ fn assert_same_run(a: &Path, b: &Path, label: &str) {
 /// must end the same. `extra` is appended to the config text; `backend` set when given.
 fn stopped_mid_epoch_and_resumed(algo: &str, extra: &str, backend: Option<Backend>) {
     let name = backend.map_or(String::new(), |b| b.to_string());
-    let dir = scratch(&format!("resume-{algo}{}{name}", extra.len()));
     let text = tiny_config_text(algo, 3, 150) + extra;
-    let mut c = RunConfig::from_toml(&text, Path::new("tiny.toml")).unwrap();
+    stopped_and_resumed(&format!("{algo}{}{name}", extra.len()), &text, backend);
+}
+
+/// The run `text` (3 epochs of 150 env steps, evaluated at step 200), stopped at that
+/// evaluation and resumed, ends as it does uninterrupted; scratch directory `resume-{name}`.
+pub fn stopped_and_resumed(name: &str, text: &str, backend: Option<Backend>) {
+    let dir = scratch(&format!("resume-{name}"));
+    let mut c = RunConfig::from_toml(text, Path::new("tiny.toml")).unwrap();
     c.protocol.backend = backend;
     let straight = dir.join("straight");
     let broken = dir.join("broken");
@@ -100,16 +106,16 @@ fn stopped_mid_epoch_and_resumed(algo: &str, extra: &str, backend: Option<Backen
             }
         })
     }));
-    assert!(stopped.is_err(), "{algo}: the run was not stopped");
+    assert!(stopped.is_err(), "{name}: the run was not stopped");
     assert!(!broken.join("test").exists());
     let evals = std::fs::read_to_string(broken.join("evaluations.csv")).unwrap();
     assert_eq!(
         evals.lines().count(),
         1 + 2,
-        "{algo}: logged past the checkpoint"
+        "{name}: logged past the checkpoint"
     );
     train(&c, &broken, Start::Resume, |_| {}).unwrap();
-    assert_same_run(&straight, &broken, algo);
+    assert_same_run(&straight, &broken, name);
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -126,6 +126,10 @@ pub struct FoosballInfo {
     /// Serves after the kick-off in this episode so far (`rules.serve_again`); this step
     /// ended a point and served again when it grew.
     pub serves: u32,
+    /// For an episode begun along a recorded one ([`crate::starts`]), the agent steps
+    /// replayed before the agent took over (0: at the recorded episode's start); `None`
+    /// for an episode the env drew itself.
+    pub replayed: Option<u32>,
 }
 
 impl StepInfo for FoosballInfo {
@@ -193,6 +197,8 @@ struct Episode {
     /// Entries into black's goal, into yellow's, this episode.
     goals: [u32; 2],
     serves: u32,
+    /// Agent steps replayed along a recorded episode before the agent took over.
+    replayed: Option<u32>,
 }
 
 /// The foosball table as a reinforcement-learning environment (see the module docs).
@@ -387,10 +393,14 @@ impl FoosballEnv {
         let own = self.own_rng.take().unwrap_or_else(|| self.rng.clone());
         self.own_rng = Some(own);
         self.start_episode(Some(start.seed), None, obs);
-        start
+        let reached = start
             .actions
             .iter()
-            .all(|action| matches!(self.advance(action, obs), Ok(t) if !t.done()))
+            .all(|action| matches!(self.advance(action, obs), Ok(t) if !t.done()));
+        if let Some(ep) = self.episode.as_mut() {
+            ep.replayed = Some(start.actions.len() as u32);
+        }
+        reached
     }
 
     /// `seen` (the ball's `[x, y]` in the env's frame) in world coordinates, if the ball
@@ -438,6 +448,7 @@ impl FoosballEnv {
             in_goals: [false; 2],
             goals: [0; 2],
             serves: 0,
+            replayed: None,
         });
         self.emit(&state, obs, true);
     }
@@ -776,7 +787,7 @@ impl FoosballEnv {
         }
         ep.state = state;
         ep.over = end.is_some();
-        let serves = ep.serves;
+        let (serves, replayed) = (ep.serves, ep.replayed);
         self.emit(&state, obs, false);
         Ok(Transition {
             reward,
@@ -794,6 +805,7 @@ impl FoosballEnv {
                 spins,
                 goals: goals_so_far,
                 serves,
+                replayed,
             },
         })
     }

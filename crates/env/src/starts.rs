@@ -118,7 +118,11 @@ mod tests {
             obs, recorded[4],
             "the observation after the 5 replayed steps"
         );
-        assert_eq!(play(&mut learner, &acts[5..]), recorded[5..].to_vec());
+        let (after, t) = learner.step(&acts[5]).unwrap();
+        assert_eq!(after, recorded[5]);
+        assert_eq!(t.info.replayed, Some(5), "the info says how it began");
+        assert_eq!(t.info.steps, 6, "the replayed steps are the episode's");
+        assert_eq!(play(&mut learner, &acts[6..]), recorded[6..].to_vec());
         assert_eq!(
             *reseeds.lock().unwrap(),
             [7],
@@ -182,5 +186,7 @@ mod tests {
         let (mut learner, _) = with_given(vec![Some(still)]);
         learner.reset(Some(3));
         assert_eq!(learner.reset(None), own);
+        let (_, t) = learner.step(&[0.0; ACTION_DIM]).unwrap();
+        assert_eq!(t.info.replayed, None, "an episode the env drew itself");
     }
 }
