@@ -46,6 +46,10 @@ struct Args {
     /// (every serve on yellow's side).
     #[arg(long, requires = "opponent", default_value_t = Kickoff::Conceded)]
     kickoff: Kickoff,
+    /// With `--opponent`: ITSF's possession limits (10 s on a five-man rod, 15 s
+    /// elsewhere; a still ball within a rod's reach is not dead).
+    #[arg(long, requires = "opponent")]
+    possession: bool,
     /// With `--opponent`: hold these of the player's rods at neutral (`goalie`,
     /// `defence`, `midfield`, `attack`, comma separated), to find which rod's play lets
     /// goals in.
@@ -63,6 +67,7 @@ fn head_to_head(player: &Player, opponent: &Contestant, args: &Args) -> Result<S
     }
     let rules = MatchRules {
         kickoff: args.kickoff,
+        possession: args.possession,
         ..MatchRules::default()
     };
     let table = match_table(player.env(), &rules);

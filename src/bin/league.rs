@@ -48,6 +48,11 @@ struct Args {
     /// serve on yellow's side).
     #[arg(long)]
     kickoff: Option<Kickoff>,
+    /// ITSF's possession limits: a rod that holds the ball over 10 s (five-man) or 15 s
+    /// loses it to the other side, and a still ball within a rod's reach is not dead
+    /// (default off, or the league's own).
+    #[arg(long)]
+    possession: bool,
     /// The table's preset (default reference).
     #[arg(long, conflicts_with = "config")]
     preset: Option<Preset>,
@@ -114,6 +119,8 @@ fn run(args: &Args) -> Result<String, String> {
             time_limit_s: args.time_limit.unwrap_or(defaults.rules.time_limit_s),
             dead_ball_s: args.dead_ball.unwrap_or(defaults.rules.dead_ball_s),
             kickoff: args.kickoff.unwrap_or(defaults.rules.kickoff),
+            possession: args.possession || defaults.rules.possession,
+            ..defaults.rules
         },
         table,
     };

@@ -355,8 +355,16 @@ document.querySelectorAll("#board th").forEach((th, col) => th.addEventListener(
     /// How the matches were played, in one sentence.
     fn rules_line(&self) -> String {
         let r = &self.rules;
+        let possession = if r.possession {
+            let [five_man, other] = r.possession_limit_s;
+            format!(
+                "; possession limits (ITSF): {five_man} s on a five-man rod, {other} s elsewhere"
+            )
+        } else {
+            String::new()
+        };
         format!(
-            "{} matches per pair, sides swapped; first to {} goals or {} s of play; kick-off {}: {}.",
+            "{} matches per pair, sides swapped; first to {} goals or {} s of play; kick-off {}: {}{possession}.",
             self.matches_per_pair,
             r.goals_to_win,
             r.time_limit_s,

@@ -20,6 +20,11 @@
 //! the side that served it; `kickoff = "yellow"` serves every ball on yellow's side. The
 //! serve favours neither side over a league because every pair plays each serve sequence
 //! twice, sides swapped.
+//!
+//! Possession ([`MatchRules::possession`], off by default): ITSF's limits, 10 s on a
+//! five-man rod and 15 s elsewhere; a rod that holds the ball longer loses it to the
+//! other side's serve, and a still ball within a rod's reach is that rod's, not a dead
+//! ball, so a served ball that nobody plays no longer stalls a match.
 
 use foosball_env::layout::{ACTION_DIM, OBS_DIM};
 use foosball_env::seeding::{MATCHES, derive_seed};
@@ -45,6 +50,13 @@ pub struct MatchRules {
     pub dead_ball_s: f32,
     /// Who serves (default `conceded`, ITSF's rule).
     pub kickoff: Kickoff,
+    /// ITSF's possession limits (default false, the leagues made before 2026-11-29): a rod
+    /// that holds the ball longer than `possession_limit_s` loses it (the point ends, the
+    /// other side serves under `kickoff = "conceded"`), and a still ball within a rod's
+    /// reach is not dead ([`foosball_env::possession`]).
+    pub possession: bool,
+    /// The limits, seconds: a five-man rod's and every other rod's (default ITSF's 10, 15).
+    pub possession_limit_s: [f32; 2],
 }
 
 /// Who serves the next ball of a match.
@@ -63,11 +75,10 @@ pub enum Kickoff {
 impl Kickoff {
     /// The side that serves after a point served by `served` ended with `end`.
     pub fn next_server(self, served: Team, end: Option<EndReason>) -> Team {
-        match (self, end) {
+        match (self, end.and_then(EndReason::loser_of_the_ball)) {
             (Kickoff::Yellow, _) => Team::Yellow,
-            (Kickoff::Conceded, Some(EndReason::Scored)) => Team::Black,
-            (Kickoff::Conceded, Some(EndReason::Conceded)) => Team::Yellow,
-            (Kickoff::Conceded, _) => served,
+            (Kickoff::Conceded, Some(loser)) => loser.other(),
+            (Kickoff::Conceded, None) => served,
         }
     }
 
@@ -113,6 +124,8 @@ impl Default for MatchRules {
             time_limit_s: 60.0,
             dead_ball_s: 1.0,
             kickoff: Kickoff::Conceded,
+            possession: false,
+            possession_limit_s: [10.0, 15.0],
         }
     }
 }
@@ -123,9 +136,12 @@ impl MatchRules {
         if self.goals_to_win == 0 {
             return Err("match.goals_to_win: must be at least 1".into());
         }
+        let [five_man, other] = self.possession_limit_s;
         for (key, v) in [
             ("match.time_limit_s", self.time_limit_s),
             ("match.dead_ball_s", self.dead_ball_s),
+            ("match.possession_limit_s", five_man),
+            ("match.possession_limit_s", other),
         ] {
             if !(v.is_finite() && v > 0.0) {
                 return Err(format!("{key}: must be a finite number > 0, got {v}"));
@@ -267,6 +283,8 @@ pub fn match_table(table: &FoosballConfig, rules: &MatchRules) -> FoosballConfig
     t.rules.stagnant_steps = ((rules.dead_ball_s / t.agent_dt()).ceil() as u32).max(1);
     t.max_episode_steps = u32::MAX;
     t.observation.hide_black_rods = false;
+    t.rules.possession = rules.possession;
+    t.rules.possession_limit_s = rules.possession_limit_s;
     t
 }
 
@@ -392,6 +410,19 @@ mod tests {
         // A dead ball is served again by the side that served it.
         assert_eq!(k.next_server(Team::Black, Some(Stagnant)), Team::Black);
         assert_eq!(k.next_server(Team::Yellow, Some(Stagnant)), Team::Yellow);
+        // A rod that held the ball too long loses it to the other side.
+        assert_eq!(
+            k.next_server(Team::Yellow, Some(EndReason::YellowHeld)),
+            Team::Black
+        );
+        assert_eq!(
+            k.next_server(Team::Yellow, Some(EndReason::BlackHeld)),
+            Team::Yellow
+        );
+        assert_eq!(
+            k.next_server(Team::Black, Some(EndReason::BlackHeld)),
+            Team::Yellow
+        );
         for end in [Some(Scored), Some(Conceded), Some(Stagnant), None] {
             assert_eq!(Kickoff::Yellow.next_server(Team::Black, end), Team::Yellow);
         }

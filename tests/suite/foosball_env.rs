@@ -394,6 +394,52 @@ fn under_the_conceded_serve_rule_the_side_scored_upon_serves_next() {
     assert!(e.contains("start.black_share"), "{e}");
 }
 
+/// Under `rules.possession` a still ball within a rod's reach is that rod's, not dead: the
+/// point ends when the rod has held it for its limit (a five-man rod's is shorter), and
+/// the other side serves next under `start.serve = "conceded"`; out of every rod's reach
+/// a still ball is dead as before, and without the rule it is dead anywhere.
+#[test]
+fn under_the_possession_rule_a_rod_that_holds_the_ball_too_long_loses_it() {
+    let mut config = ten_ms();
+    config.rules.no_progress_steps = 1000;
+    config.rules.possession = true;
+    config.rules.possession_limit_s = [0.2, 0.3]; // 20 and 30 agent steps of 10 ms
+    config.start.serve = Serve::Conceded;
+    (config.start.y_mean, config.start.y_std) = (-20.0, 0.1);
+    let ends = |config: &FoosballConfig, at: [f32; 2]| {
+        let mut env = placed(config.clone(), at, [0.0, 0.0]);
+        let ts = play_out(&mut env, 100);
+        let last = ts.last().unwrap();
+        assert!(last.terminated, "{:?}", last.info);
+        let served = env.reset(None)[BALL_POS.start + 1];
+        (ts.len(), last.info.end, served > 0.0)
+    };
+    // Between the men of yellow's midfield (world y -7.5), 4.5 cm in front of its axis.
+    assert_eq!(
+        ends(&config, [6.0, -3.0]),
+        (20, Some(EndReason::YellowHeld), true),
+        "yellow's five-man rod held it 0.2 s: black serves"
+    );
+    // Between the men of black's attack (world y -22.5).
+    assert_eq!(
+        ends(&config, [9.0, -19.0]),
+        (30, Some(EndReason::BlackHeld), false),
+        "black's three-man rod held it 0.3 s: yellow serves"
+    );
+    // Between yellow's midfield and black's attack: nobody's, dead after 10 still steps.
+    assert_eq!(ends(&config, [6.0, -15.0]).0, 10);
+    let mut off = config.clone();
+    off.rules.possession = false;
+    assert_eq!(
+        ends(&off, [6.0, -3.0]).1,
+        Some(EndReason::Stagnant),
+        "without the rule a still ball is dead anywhere"
+    );
+    config.rules.possession_limit_s = [0.0, 15.0];
+    let e = FoosballEnv::new(config).err().unwrap().to_string();
+    assert!(e.contains("rules.possession_limit_s"), "{e}");
+}
+
 #[test]
 fn a_non_finite_action_is_refused_and_changes_nothing() {
     let mut a = env_with(ten_ms());

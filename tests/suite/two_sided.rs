@@ -234,3 +234,49 @@ fn the_side_scored_upon_serves_next() {
     assert!(m.yellow_goals > 0, "{m:?}");
     assert_ne!(play(&itsf, &random, &zero, seed), m);
 }
+
+/// Under ITSF's possession limits a served ball that nobody plays is the serving side's
+/// midfield's, not a dead ball: after 10 s it goes to the other side, instead of being
+/// served again by the same side every second.
+#[test]
+fn a_ball_nobody_plays_changes_sides_under_the_possession_limits() {
+    use foosball_rl::env::EndReason;
+    use foosball_rl::env::geometry::Team;
+    use foosball_rl::env::layout::BALL_POS;
+    let zero = Contestant::Scripted(ScriptedPolicy::Zero);
+    let rules = |possession| MatchRules {
+        time_limit_s: 30.0,
+        possession,
+        ..MatchRules::default()
+    };
+    let play = |r: &MatchRules| {
+        let table = match_table(&FoosballConfig::default(), r);
+        play_match(&table, r, &zero, &zero, 3).unwrap()
+    };
+    let dead = play(&rules(false));
+    assert_eq!((dead.yellow_goals, dead.black_goals), (0, 0));
+    assert!(dead.serves >= 25, "a dead ball every second: {dead:?}");
+    let held = play(&rules(true));
+    assert_eq!((held.yellow_goals, held.black_goals), (0, 0));
+    assert_eq!(
+        held.serves, 3,
+        "held 10 s each, then the other side: {held:?}"
+    );
+    // Each serve lies by the serving side's midfield, which holds it until its limit.
+    let table = match_table(&FoosballConfig::default(), &rules(true));
+    for (side, held) in [
+        (Team::Yellow, EndReason::YellowHeld),
+        (Team::Black, EndReason::BlackHeld),
+    ] {
+        let mut env = FoosballEnv::new(table.clone()).unwrap();
+        env.serve_on(side);
+        let served = env.reset(Some(1))[BALL_POS.start + 1];
+        assert_eq!(served > 0.0, side == Team::Black, "{served}");
+        let (mut end, mut steps) = (None, 0);
+        while end.is_none() {
+            end = env.step(&[0.0; 8]).unwrap().1.info.end;
+            steps += 1;
+        }
+        assert_eq!((end, steps), (Some(held), 5000), "10 s of 2 ms steps");
+    }
+}

@@ -23,6 +23,7 @@
 //! | `rules.no_progress_steps` (agent steps without +y) | 15 (30 ms) | 15 (30 ms) | 15 (30 ms) | 15 (150 ms) | 15 (150 ms) | 15 (30 ms) | 15 (150 ms) |
 //! | `rules.end_on_goal` | false | false | false | false | true | false | false |
 //! | `rules.serve_again` (a point's end serves again, the episode goes on) | false | false | false | false | false | false | false |
+//! | `rules.possession` (ITSF's possession limits end a point) | false | false | false | false | false | false | false |
 //! | `reward.goal` (cm, in `ball_frame`) | (0, 65) | (0, 65) | (0, 65) | (0, 64) | (0, 64) | (0, 65) | (0, 64) |
 //! | `reward.goal_line_y` (in black's goal when y >= it) | 65 | 65 | 65 | 64 | 64 | 65 | 64 |
 //! | `reward.own_goal_line_y` (in yellow's goal when y <= -it) | 65 | 65 | 65 | 64 | 64 | 65 | 64 |
@@ -559,6 +560,16 @@ pub struct EpisodeRules {
     /// it (nor serves again); only `max_episode_steps` and a physics fault do. Rewards and
     /// the info's counters are as with the rules on.
     pub end_episodes: bool,
+    /// ITSF's possession limits (default false: the paper has none). A ball kept within
+    /// reach of one rod ([`crate::geometry::MAN_REACH_Y`]) for longer than that rod's
+    /// limit (`possession_limit_s`) ends the point ([`crate::EndReason::YellowHeld`] or
+    /// [`crate::EndReason::BlackHeld`], terminated); under `start.serve = "conceded"` the
+    /// other side serves the next ball. A still ball within a rod's reach is that rod's,
+    /// not dead: `stagnant_steps` ends only points whose ball lies out of every rod's reach.
+    pub possession: bool,
+    /// The possession limits, seconds: a five-man rod's and every other rod's (default
+    /// ITSF's 10 and 15).
+    pub possession_limit_s: [f32; 2],
 }
 
 impl Default for EpisodeRules {
@@ -572,6 +583,8 @@ impl Default for EpisodeRules {
             spin_limit_deg: 360.0,
             serve_again: false,
             end_episodes: true,
+            possession: false,
+            possession_limit_s: [10.0, 15.0],
         }
     }
 }
@@ -959,6 +972,9 @@ impl FoosballConfig {
         non_negative("rules.stagnant_speed", self.rules.stagnant_speed)?;
         at_least_one("rules.stagnant_steps", self.rules.stagnant_steps)?;
         at_least_one("rules.no_progress_steps", self.rules.no_progress_steps)?;
+        for limit in self.rules.possession_limit_s {
+            positive("rules.possession_limit_s", limit)?;
+        }
         finite("start.x_mean", self.start.x_mean)?;
         finite("start.y_mean", self.start.y_mean)?;
         non_negative("start.x_std", self.start.x_std)?;

@@ -5,10 +5,13 @@
 //! goal]` on the ball's position after the step (see [`crate::config::RewardConfig`]),
 //! paid on every step. An episode ends when the ball stays at or under
 //! `rules.stagnant_speed` for `rules.stagnant_steps` steps or gains no y for `rules.no_progress_steps` steps
-//! (terminated), when it enters a goal under `rules.end_on_goal` (terminated), reaches
+//! (terminated; under `rules.possession` only out of every rod's reach), when one rod
+//! holds it past its possession limit under `rules.possession` ([`crate::possession`],
+//! terminated), when it enters a goal under `rules.end_on_goal` (terminated), reaches
 //! `max_episode_steps` (truncated), or the physics fails: a non-finite state or a ball
 //! out of the table (truncated, flagged as [`EndReason::PhysicsFault`]). Under
-//! `rules.serve_again` the ends of a point (a goal, a stagnant ball, no progress) serve the
+//! `rules.serve_again` the ends of a point (a goal, a stagnant ball, no progress, a ball
+//! held too long) serve the
 //! ball again instead, as a match does, and the episode goes on to its time limit.
 
 use std::collections::VecDeque;
@@ -29,6 +32,7 @@ use crate::layout::{
 };
 use crate::observation::{FrameStack, ObservationKind};
 use crate::opponent::Opponent;
+use crate::possession::{PossessionClock, is_five_man};
 use crate::render::{Frame, Renderer};
 use crate::roster::opponent_for;
 use crate::spin::SpinMeter;
@@ -56,11 +60,17 @@ pub enum EndReason {
     PhysicsFault,
     /// One of yellow's rods spun under `rules.spin = "foul"` (terminated).
     SpinFoul,
+    /// One of yellow's rods held the ball past its possession limit under
+    /// `rules.possession` (terminated).
+    YellowHeld,
+    /// One of black's rods held the ball past its possession limit under
+    /// `rules.possession` (terminated).
+    BlackHeld,
 }
 
 impl EndReason {
     /// Every reason, in a fixed order (for tallies).
-    pub const ALL: [EndReason; 7] = [
+    pub const ALL: [EndReason; 9] = [
         EndReason::Scored,
         EndReason::Conceded,
         EndReason::Stagnant,
@@ -68,6 +78,8 @@ impl EndReason {
         EndReason::TimeLimit,
         EndReason::PhysicsFault,
         EndReason::SpinFoul,
+        EndReason::YellowHeld,
+        EndReason::BlackHeld,
     ];
 
     /// Its name in logs (snake case).
@@ -80,6 +92,8 @@ impl EndReason {
             EndReason::TimeLimit => "time_limit",
             EndReason::PhysicsFault => "physics_fault",
             EndReason::SpinFoul => "spin_foul",
+            EndReason::YellowHeld => "yellow_held",
+            EndReason::BlackHeld => "black_held",
         }
     }
 
@@ -89,12 +103,28 @@ impl EndReason {
     }
 
     /// True for the ends of a point, which `rules.serve_again` turns into a serve: a goal,
-    /// a stagnant ball, a ball without progress.
+    /// a stagnant ball, a ball without progress, a ball held too long.
     pub fn ends_point(self) -> bool {
         matches!(
             self,
-            EndReason::Scored | EndReason::Conceded | EndReason::Stagnant | EndReason::NoProgress
+            EndReason::Scored
+                | EndReason::Conceded
+                | EndReason::Stagnant
+                | EndReason::NoProgress
+                | EndReason::YellowHeld
+                | EndReason::BlackHeld
         )
+    }
+
+    /// The side that loses the ball by this end: the scoring side after a goal (the
+    /// side scored upon serves), the holding side after a possession foul; `None` for the
+    /// other ends.
+    pub fn loser_of_the_ball(self) -> Option<Team> {
+        match self {
+            EndReason::Scored | EndReason::YellowHeld => Some(Team::Yellow),
+            EndReason::Conceded | EndReason::BlackHeld => Some(Team::Black),
+            _ => None,
+        }
     }
 }
 
@@ -199,6 +229,7 @@ struct Episode {
     serves: u32,
     /// Agent steps replayed along a recorded episode before the agent took over.
     replayed: Option<u32>,
+    possession: PossessionClock,
 }
 
 /// The foosball table as a reinforcement-learning environment (see the module docs).
@@ -449,6 +480,7 @@ impl FoosballEnv {
             goals: [0; 2],
             serves: 0,
             replayed: None,
+            possession: PossessionClock::default(),
         });
         self.emit(&state, obs, true);
     }
@@ -707,6 +739,17 @@ impl FoosballEnv {
             ep.no_progress_steps + 1
         };
         ep.prev_ball_y = y;
+        let dt = self.config.agent_dt();
+        let [five_man, other] = rules
+            .possession_limit_s
+            .map(|s| (s / dt).round().max(1.0) as u32);
+        let held = rules
+            .possession
+            .then(|| {
+                ep.possession
+                    .update(y, |rod| if is_five_man(rod) { five_man } else { other })
+            })
+            .flatten();
         let spun = ep
             .spin
             .update(&state[ROD_ANGLE], rules.spin_limit_deg.to_radians());
@@ -724,7 +767,14 @@ impl FoosballEnv {
             (ep.steps >= self.config.max_episode_steps).then_some(EndReason::TimeLimit)
         } else if rules.spin == SpinRule::Foul && yellow_spins > 0 {
             Some(EndReason::SpinFoul)
-        } else if ep.stagnant_steps >= rules.stagnant_steps {
+        } else if let Some(team) = held {
+            Some(match team {
+                Team::Yellow => EndReason::YellowHeld,
+                Team::Black => EndReason::BlackHeld,
+            })
+        } else if ep.stagnant_steps >= rules.stagnant_steps
+            && !(rules.possession && ep.possession.holder().is_some())
+        {
             Some(EndReason::Stagnant)
         } else if ep.no_progress_steps >= rules.no_progress_steps {
             Some(EndReason::NoProgress)
@@ -733,7 +783,8 @@ impl FoosballEnv {
         } else {
             None
         };
-        let mut end = event.or(rule_end);
+        let point_end = event.or(rule_end);
+        let mut end = point_end;
         let mut serve = false;
         if rules.serve_again && end.is_some_and(EndReason::ends_point) {
             // The point is over; the episode only at its time limit.
@@ -766,11 +817,14 @@ impl FoosballEnv {
         }
         reward -= spin_penalty;
         if self.config.start.serve == Serve::Conceded && (serve || end.is_some()) {
-            // The side scored upon serves the next ball; after a dead ball, the same side.
+            // The side scored upon serves the next ball, the side that held it too long
+            // loses it; after a dead ball, the same side serves again.
             if in_goal {
                 self.server = Team::Black;
             } else if in_own_goal {
                 self.server = Team::Yellow;
+            } else if let Some(loser) = point_end.and_then(EndReason::loser_of_the_ball) {
+                self.server = loser.other();
             }
         }
         if serve {
@@ -784,6 +838,7 @@ impl FoosballEnv {
             ep.prev_ball_y = state[BALL_POS.start + 1];
             ep.in_goals = [false; 2];
             ep.spin = SpinMeter::new(&state[ROD_ANGLE]);
+            ep.possession = PossessionClock::default();
         }
         ep.state = state;
         ep.over = end.is_some();

@@ -54,6 +54,12 @@ pub const REFERENCE_ACTION_BOUND: f32 = 20.0;
 
 /// Height of every rod axis above the playfield, cm.
 pub const ROD_HEIGHT: f32 = 7.75;
+/// How far along the table (y) from a rod's axis a man of it can reach the ball, cm: the
+/// ball's centre lies `ROD_HEIGHT - BALL_RADIUS` below the axis, and a turning man's foot
+/// sweeps a circle of radius [`foosman::FOOT_BOTTOM`] about it, so it touches the ball
+/// where `dy² + (ROD_HEIGHT - BALL_RADIUS)² <= (FOOT_BOTTOM + BALL_RADIUS)²`.
+/// A ball within it is in that rod's possession (ITSF's possession rule).
+pub const MAN_REACH_Y: f32 = 6.712;
 /// Radius of the steel rods, cm.
 pub const ROD_RADIUS: f32 = 0.78;
 /// Mass of the rod's bumpers and handle carried with the rod body, kg (2 x 0.05 + 0.01).
@@ -125,6 +131,14 @@ impl Team {
         match self {
             Team::Yellow => 1.0,
             Team::Black => -1.0,
+        }
+    }
+
+    /// The other side.
+    pub fn other(self) -> Team {
+        match self {
+            Team::Yellow => Team::Black,
+            Team::Black => Team::Yellow,
         }
     }
 }

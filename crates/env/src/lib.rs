@@ -10,7 +10,8 @@
 //!   [`observation`]: the state or stacked frames of it as what the agent sees.
 //! - [`scripted`]: hand-written shooter and dribbler, the yardsticks for learners;
 //!   [`roster`]: the built-in opponents by name; [`spin`]: spinning rods counted;
-//!   [`starts`]: training episodes begun along recorded ones (a reverse curriculum).
+//!   [`possession`]: ITSF's possession limits; [`starts`]: training episodes begun along
+//!   recorded ones (a reverse curriculum).
 //! - [`soft_contact`] and [`soft_stop`]: MuJoCo's soft constraints (the ball on the men,
 //!   the bumpers on the walls); [`servo`]: the rods' position servos.
 //! - [`config`]: the table's settings and presets, refused by key ([`config_error`]).
@@ -29,6 +30,7 @@ pub mod layout;
 pub mod observation;
 pub mod opponent;
 pub mod pendulum;
+pub mod possession;
 pub mod render;
 pub mod roster;
 pub mod scripted;
