@@ -19,6 +19,8 @@ sign from the nearest feature's angle-weighted pseudonormal (Baerentzen and Aana
 that grid (trilinear) and the ball's exact sphere, at random poses of the ball by yellow's
 centre midfielder (as tools/mujoco_sensitivity.py's `--contact-poses`), and compares each
 pose's contacts with the model's: how many, their mean depth, mean normal and mean place.
+With `--model-moved EPS` it compares the model with itself at each pose and with the
+ball EPS cm further along x instead (how smoothly the model's contacts move).
 """
 import argparse
 import os
@@ -26,6 +28,7 @@ import time
 
 import mujoco
 import numpy as np
+
 
 def closest_on_triangles(p, a, b, c):
     # Ericson's closest point on triangle, vectorised over rows
@@ -237,7 +240,14 @@ def compare_main(a):
         d.qpos[qpos("ball_x")] = rng.uniform(-2.5, 1.5)
         d.qpos[qpos("ball_y")] = rng.uniform(-4.0, 1.0)
         mujoco.mj_forward(m, d)
-        t, o = np.array(contacts_model()), np.array(contacts_ours())
+        t = np.array(contacts_model())
+        if a.model_moved:
+            # the model against itself, its ball moved along x
+            d.qpos[qpos("ball_x")] += a.model_moved
+            mujoco.mj_forward(m, d)
+            o = np.array(contacts_model())
+        else:
+            o = np.array(contacts_ours())
         if len(t) and len(o):
             nt, no = t[:, 4:].mean(0), o[:, 4:].mean(0)
             cos = nt @ no / np.linalg.norm(nt) / np.linalg.norm(no)
@@ -266,6 +276,8 @@ def main():
     c = sub.add_parser("compare", help="the search on the grid against the model's contacts")
     c.add_argument("grid")
     c.add_argument("--poses", type=int, default=300)
+    c.add_argument("--model-moved", type=float, default=0.0,
+                   help="compare the model with itself, its ball moved this far along x (cm), instead")
     a = p.parse_args()
     grid_main(a) if a.cmd == "grid" else compare_main(a)
 
