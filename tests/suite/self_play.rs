@@ -155,7 +155,7 @@ fn bad_self_play_settings_are_refused_by_key() {
         ),
         (
             "[self_play]\nanchors = [\"goalie\"]\n",
-            "tiny.toml:19: unknown variant `goalie`",
+            "tiny.toml:19: self_play.anchors: unknown variant `goalie`",
         ),
         ("[self_play]\nsnapshots = 3\n", "snapshots"),
         (
