@@ -19,14 +19,13 @@ touching pose reports and in how many distinct places (merged within 0.05 in pos
 cm, and normal).
 """
 import argparse
-import json
 import os
 
 import mujoco
 import numpy as np
 
 from plan_consistency import read
-from plan_transfer import GAP_STEPS, JOINT_ORIGIN, first_move, quartiles, replay
+from plan_transfer import GAP_STEPS, JOINT_ORIGIN, emit, first_move, quartiles, replay
 from transfer import load_gym, wilson
 
 MODEL_INITPOINTS = 40  # the model's <option sdf_initpoints="40">
@@ -107,10 +106,7 @@ def main():
         "ball_gap_cm_model_vs_ours": quartiles(ours),
         "contact_patches": patches,
     }
-    print(json.dumps(summary, indent=1))
-    if a.out:
-        with open(a.out, "w") as f:
-            json.dump(summary, f, indent=1)
+    emit(summary, a.out)
 
 
 if __name__ == "__main__":

@@ -65,6 +65,14 @@ def replay(env, obs, actions):
     return scored, np.array(ball)
 
 
+def emit(summary, out):
+    """Prints `summary` as JSON and writes it to `out` when given."""
+    print(json.dumps(summary, indent=1))
+    if out:
+        with open(out, "w") as f:
+            json.dump(summary, f, indent=1)
+
+
 def quartiles(values):
     return {"median": float(np.median(values)), "q25": float(np.quantile(values, 0.25)),
             "q75": float(np.quantile(values, 0.75)), "n": len(values)}
@@ -109,10 +117,7 @@ def main():
         "kick_direction_difference_deg": quartiles(turns),
         "ball_gap_cm_10_steps_after_first_move": quartiles(gaps),
     }
-    print(json.dumps(summary, indent=1))
-    if a.out:
-        with open(a.out, "w") as f:
-            json.dump(summary, f, indent=1)
+    emit(summary, a.out)
 
 
 if __name__ == "__main__":
