@@ -412,6 +412,22 @@ pub fn markdown_tables(groups: &[Group]) -> String {
     out
 }
 
+/// A file-name stem for a group's label: characters a path cannot hold replaced, and a
+/// label longer than 100 bytes (an ablation's many departing keys) cut to its first 80
+/// characters and a hash of the whole (file names hold at most 255 bytes).
+fn file_stem(label: &str) -> String {
+    let stem = label.replace(['*', ' ', '/', '"'], "_");
+    if stem.len() <= 100 {
+        return stem;
+    }
+    // FNV-1a: the same label names the same file in every run of the report.
+    let hash = label.bytes().fold(0xcbf2_9ce4_8422_2325_u64, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    });
+    let cut: String = stem.chars().take(80).collect();
+    format!("{cut}-{hash:016x}")
+}
+
 /// For each learner group whose first run kept its test trajectories, GIFs of that run's
 /// best and worst test episode (by return) in `out`, as markdown; nothing where no run
 /// has them (`trajectories.bin` is not committed with results).
@@ -436,7 +452,7 @@ fn episode_gifs(groups: &[Group], out: &Path) -> Result<String, ReportError> {
             caption: true,
             goal_line_y: run.goal_line_y,
         };
-        let stem = g.label.replace(['*', ' ', '/', '"'], "_");
+        let stem = file_stem(&g.label);
         md += &format!("### {} ({})\n\n", g.label, run.name);
         for (what, k) in [("best", best), ("worst", worst)] {
             let file = format!("{stem}-{what}.gif");
@@ -500,7 +516,22 @@ pub fn write_report(paths: &[PathBuf], out: &Path) -> Result<String, ReportError
 
 #[cfg(test)]
 mod tests {
-    use super::{common_value, number_text};
+    use super::{common_value, file_stem, number_text};
+
+    #[test]
+    fn a_long_group_label_names_a_short_file_of_its_own() {
+        assert_eq!(file_stem("sac reference 64x64"), "sac_reference_64x64");
+        let long = |v: &str| {
+            format!(
+                "sac reference 64x64 {}",
+                format!("key.{v}=none ").repeat(20)
+            )
+        };
+        let (a, b) = (file_stem(&long("a")), file_stem(&long("b")));
+        assert!(a.len() <= 100 && b.len() <= 100, "{a}");
+        assert_ne!(a, b, "two labels, two files");
+        assert_eq!(file_stem(&long("a")), a, "the same label, the same file");
+    }
 
     #[test]
     fn config_numbers_read_as_their_file_writes_them() {
