@@ -284,13 +284,15 @@ pub fn group(runs: Vec<RunResults>) -> Vec<Group> {
         .map(|r| {
             let peers: Vec<&RunResults> = runs.iter().filter(|o| base(o) == base(r)).collect();
             let keys: BTreeSet<&String> = peers.iter().flat_map(|o| o.settings.keys()).collect();
-            let departs = keys.into_iter().filter_map(|key| {
-                let own = r.settings.get(key);
-                (common_value(peers.iter().map(|o| o.settings.get(key))) != own)
-                    .then(|| format!("{key}={}", own.map_or("none", String::as_str)))
-            });
+            let departs: Vec<(&String, Option<&String>)> = keys
+                .into_iter()
+                .map(|key| (key, r.settings.get(key)))
+                .filter(|&(key, own)| {
+                    common_value(peers.iter().map(|o| o.settings.get(key))) != own
+                })
+                .collect();
             std::iter::once(base(r))
-                .chain(departs)
+                .chain(departure_words(&departs, &r.settings))
                 .collect::<Vec<_>>()
                 .join(" ")
         })
@@ -308,6 +310,31 @@ pub fn group(runs: Vec<RunResults>) -> Vec<Group> {
         }
     }
     groups
+}
+
+/// The words of a group's label for the keys where a run of `settings` departs
+/// (`key=value`, in key order): the keys of a table the run has none of (`[curriculum]`
+/// absent, say) as one `table=none`, not one `table.key=none` per key.
+fn departure_words(
+    departs: &[(&String, Option<&String>)],
+    settings: &BTreeMap<String, String>,
+) -> Vec<String> {
+    fn absent_table<'a>(key: &'a str, settings: &BTreeMap<String, String>) -> Option<&'a str> {
+        let (table, _) = key.rsplit_once('.')?;
+        let prefix = format!("{table}.");
+        (!settings.keys().any(|k| k.starts_with(&prefix))).then_some(table)
+    }
+    let mut words: Vec<String> = Vec::new();
+    for &(key, own) in departs {
+        let word = match (own, absent_table(key, settings)) {
+            (None, Some(table)) => format!("{table}=none"),
+            _ => format!("{key}={}", own.map_or("none", String::as_str)),
+        };
+        if !words.contains(&word) {
+            words.push(word);
+        }
+    }
+    words
 }
 
 /// One metric of one group.
@@ -516,7 +543,30 @@ pub fn write_report(paths: &[PathBuf], out: &Path) -> Result<String, ReportError
 
 #[cfg(test)]
 mod tests {
-    use super::{common_value, file_stem, number_text};
+    use super::{common_value, departure_words, file_stem, number_text};
+    use std::collections::BTreeMap;
+
+    #[test]
+    fn a_table_the_run_lacks_is_one_word_of_its_label() {
+        let keys = [
+            "curriculum.share",
+            "curriculum.window",
+            "protocol.demonstrations",
+        ]
+        .map(String::from);
+        let settings: BTreeMap<String, String> = [("protocol.epochs", "2"), ("sac.gamma", "0.99")]
+            .into_iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect();
+        let departs: Vec<_> = keys.iter().map(|k| (k, None)).collect();
+        assert_eq!(
+            departure_words(&departs, &settings),
+            ["curriculum=none", "protocol.demonstrations=none"]
+        );
+        let five = "5".to_string();
+        let own = [(&keys[1], Some(&five))];
+        assert_eq!(departure_words(&own, &settings), ["curriculum.window=5"]);
+    }
 
     #[test]
     fn a_long_group_label_names_a_short_file_of_its_own() {
