@@ -38,26 +38,43 @@ def gap(a, b, t):
     return float(np.hypot(*(a[t + GAP_STEPS, :2] - b[t + GAP_STEPS, :2])))
 
 
-def contact_patches(env, poses, tol=0.05):
-    """The model's ball-man contacts at `poses` random poses: per touching pose, the
-    contacts reported and the distinct places among them."""
-    m = env.model
-    d = mujoco.MjData(m)
+def midfielder_pair(m):
+    """The geom ids of the ball and of yellow's centre midfielder."""
     geom = lambda n: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, n)
+    return geom("ball"), geom("y_mid_guy3")
+
+
+def midfielder_poses(m, d, poses):
+    """Puts the ball by yellow's centre midfielder at `poses` random poses (turn in
+    [-1.5, 1.5] rad, ball joint x in [-2.5, 1.5] and y in [-4, 1] cm, seed 0), `d` forward
+    at each, yielding each in turn; only that pair collides while it runs."""
     qpos = lambda n: m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, n)]
-    ball, man = geom("ball"), geom("y_mid_guy3")
+    ball, man = midfielder_pair(m)
     contype, conaffinity = m.geom_contype.copy(), m.geom_conaffinity.copy()
     for g in range(m.ngeom):
         if g not in (ball, man):
             m.geom_contype[g] = m.geom_conaffinity[g] = 0
     rng = np.random.default_rng(0)
+    try:
+        for _ in range(poses):
+            mujoco.mj_resetData(m, d)
+            d.qpos[qpos("y_mid_rotation")] = rng.uniform(-1.5, 1.5)
+            d.qpos[qpos("ball_x")] = rng.uniform(-2.5, 1.5)
+            d.qpos[qpos("ball_y")] = rng.uniform(-4.0, 1.0)
+            mujoco.mj_forward(m, d)
+            yield
+    finally:
+        m.geom_contype[:], m.geom_conaffinity[:] = contype, conaffinity
+
+
+def contact_patches(env, poses, tol=0.05):
+    """The model's ball-man contacts at `poses` random poses: per touching pose, the
+    contacts reported and the distinct places among them."""
+    m = env.model
+    d = mujoco.MjData(m)
+    _, man = midfielder_pair(m)
     reported, places = [], []
-    for _ in range(poses):
-        mujoco.mj_resetData(m, d)
-        d.qpos[qpos("y_mid_rotation")] = rng.uniform(-1.5, 1.5)
-        d.qpos[qpos("ball_x")] = rng.uniform(-2.5, 1.5)
-        d.qpos[qpos("ball_y")] = rng.uniform(-4.0, 1.0)
-        mujoco.mj_forward(m, d)
+    for _ in midfielder_poses(m, d, poses):
         rows = [np.r_[c.pos, (1 if c.geom1 == man else -1) * c.frame[:3]] for c in d.contact[: d.ncon]]
         if not rows:
             continue
@@ -67,7 +84,6 @@ def contact_patches(env, poses, tol=0.05):
                 distinct.append(r)
         reported.append(len(rows))
         places.append(len(distinct))
-    m.geom_contype[:], m.geom_conaffinity[:] = contype, conaffinity
     return {"poses": poses, "touching": len(places), "contacts_per_touching_pose": float(np.mean(reported)),
             "distinct_places_mean": float(np.mean(places)), "distinct_places_max": int(max(places))}
 

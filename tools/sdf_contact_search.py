@@ -17,7 +17,7 @@ sign from the nearest feature's angle-weighted pseudonormal (Baerentzen and Aana
 `sdf_iterations` backtracking gradient steps on `A + B + |max(A, B)|`, one step on
 `max(A, B)`, a contact where that is at most 0, its normal the midsurface's gradient) on
 that grid (trilinear) and the ball's exact sphere, at random poses of the ball by yellow's
-centre midfielder (as tools/mujoco_sensitivity.py's `--contact-poses`), and compares each
+centre midfielder (those of tools/mujoco_sensitivity.py's `--contact-poses`), and compares each
 pose's contacts with the model's: how many, their mean depth, mean normal and mean place.
 With `--model-moved EPS` it compares the model with itself at each pose and with the
 ball EPS cm further along x instead (how smoothly the model's contacts move).
@@ -28,6 +28,8 @@ import time
 
 import mujoco
 import numpy as np
+
+from mujoco_sensitivity import midfielder_pair, midfielder_poses
 
 
 def closest_on_triangles(p, a, b, c):
@@ -223,27 +225,17 @@ def halton(i, base):
 def compare_main(a):
     global m, d, ball, man, lo, h, D, shape
     m, d = load()
-    geom = lambda n: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, n)
-    qpos = lambda n: m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, n)]
-    ball, man = geom("ball"), geom("y_mid_guy3")
-    for g in range(m.ngeom):
-        if g not in (ball, man):
-            m.geom_contype[g] = m.geom_conaffinity[g] = 0
+    ball_x = m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "ball_x")]
+    ball, man = midfielder_pair(m)
     G = np.load(a.grid)
     lo, h, D = G["lo"], float(G["h"]), G["d"].astype(float)
     shape = np.array(D.shape)
-    rng = np.random.default_rng(0)
     both, only_model, only_ours = [], 0, 0
-    for _ in range(a.poses):
-        mujoco.mj_resetData(m, d)
-        d.qpos[qpos("y_mid_rotation")] = rng.uniform(-1.5, 1.5)
-        d.qpos[qpos("ball_x")] = rng.uniform(-2.5, 1.5)
-        d.qpos[qpos("ball_y")] = rng.uniform(-4.0, 1.0)
-        mujoco.mj_forward(m, d)
+    for _ in midfielder_poses(m, d, a.poses):
         t = np.array(contacts_model())
         if a.model_moved:
             # the model against itself, its ball moved along x
-            d.qpos[qpos("ball_x")] += a.model_moved
+            d.qpos[ball_x] += a.model_moved
             mujoco.mj_forward(m, d)
             o = np.array(contacts_model())
         else:

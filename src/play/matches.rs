@@ -125,7 +125,7 @@ impl Default for MatchRules {
             dead_ball_s: 1.0,
             kickoff: Kickoff::Conceded,
             possession: false,
-            possession_limit_s: [10.0, 15.0],
+            possession_limit_s: foosball_env::possession::ITSF_LIMITS_S,
         }
     }
 }

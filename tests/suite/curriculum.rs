@@ -20,7 +20,13 @@ use std::path::{Path, PathBuf};
 /// The tiny SAC run, 400 env steps, on a table whose episodes last up to 120 steps (the
 /// planner's goals take more than the tiny table's 30).
 fn tiny_text() -> String {
-    tiny_config_text("sac", 2, 200).replace("max_episode_steps = 30", "max_episode_steps = 120")
+    tiny_text_of(2, 200)
+}
+
+/// The tiny SAC run of `epochs` x `steps_per_epoch` env steps on that table.
+fn tiny_text_of(epochs: u32, steps_per_epoch: u64) -> String {
+    tiny_config_text("sac", epochs, steps_per_epoch)
+        .replace("max_episode_steps = 30", "max_episode_steps = 120")
 }
 
 /// `episodes` of `policy` (the planner on a small budget) recorded on the run's table
@@ -198,23 +204,18 @@ fn logged_backs(run: &Path) -> Vec<f64> {
 
 /// `schedule = "success"`: begun one step before the teacher's goals, where the ball goes
 /// in whatever the learner does, the starts move back as the learner keeps scoring from
-/// them; the run reproduces, and one
-/// stopped and resumed ends as the uninterrupted one (the distance and the window so far
-/// are in the checkpoint).
+/// them; the run reproduces, and one stopped and resumed ends as the uninterrupted one
+/// (the distance and the window so far are in the checkpoint).
 #[test]
 fn starts_move_back_as_the_learner_succeeds_from_them() {
     let dir = scratch("curriculum-success");
     let teacher = record(&dir, ScriptedPolicy::Planner, 1000, 3);
-    let lines = |rate: f64| {
-        teacher_lines(
-            &teacher,
-            &format!(
-                "share = 1.0\nfirst_back = 1\nschedule = \"success\"\nwindow = 2\n\
-                 success_rate = {rate}\nadvance = 1\n"
-            ),
-        )
-    };
-    let text = config_text(Some(&lines(0.5)));
+    let lines = teacher_lines(
+        &teacher,
+        "share = 1.0\nfirst_back = 1\nschedule = \"success\"\nwindow = 2\n\
+         success_rate = 0.5\nadvance = 1\n",
+    );
+    let text = config_text(Some(&lines));
     let (metrics, _) = run(&dir, "success", &text).unwrap();
     let backs = logged_backs(&dir.join("success"));
     assert!(!backs.is_empty(), "no train/curriculum_back rows");
@@ -224,9 +225,6 @@ fn starts_move_back_as_the_learner_succeeds_from_them() {
         "the starts never moved back: {backs:?}"
     );
     assert_eq!(run(&dir, "success-again", &text).unwrap().0, metrics);
-    let resumable = tiny_config_text("sac", 3, 150)
-        .replace("max_episode_steps = 30", "max_episode_steps = 120")
-        + "[curriculum]\n"
-        + &lines(0.5);
+    let resumable = tiny_text_of(3, 150) + "[curriculum]\n" + &lines;
     crate::resume::stopped_and_resumed("curriculum-success", &resumable, None);
 }

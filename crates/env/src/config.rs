@@ -584,7 +584,7 @@ impl Default for EpisodeRules {
             serve_again: false,
             end_episodes: true,
             possession: false,
-            possession_limit_s: [10.0, 15.0],
+            possession_limit_s: crate::possession::ITSF_LIMITS_S,
         }
     }
 }

@@ -739,17 +739,16 @@ impl FoosballEnv {
             ep.no_progress_steps + 1
         };
         ep.prev_ball_y = y;
-        let dt = self.config.agent_dt();
-        let [five_man, other] = rules
-            .possession_limit_s
-            .map(|s| (s / dt).round().max(1.0) as u32);
-        let held = rules
-            .possession
-            .then(|| {
-                ep.possession
-                    .update(y, |rod| if is_five_man(rod) { five_man } else { other })
-            })
-            .flatten();
+        let held = if rules.possession {
+            let dt = self.config.agent_dt();
+            let [five_man, other] = rules
+                .possession_limit_s
+                .map(|s| (s / dt).round().max(1.0) as u32);
+            ep.possession
+                .update(y, |rod| if is_five_man(rod) { five_man } else { other })
+        } else {
+            None
+        };
         let spun = ep
             .spin
             .update(&state[ROD_ANGLE], rules.spin_limit_deg.to_radians());
@@ -772,9 +771,8 @@ impl FoosballEnv {
                 Team::Yellow => EndReason::YellowHeld,
                 Team::Black => EndReason::BlackHeld,
             })
-        } else if ep.stagnant_steps >= rules.stagnant_steps
-            && !(rules.possession && ep.possession.holder().is_some())
-        {
+        } else if ep.stagnant_steps >= rules.stagnant_steps && ep.possession.holder().is_none() {
+            // (The clock runs only under `rules.possession`: without it nobody holds.)
             Some(EndReason::Stagnant)
         } else if ep.no_progress_steps >= rules.no_progress_steps {
             Some(EndReason::NoProgress)

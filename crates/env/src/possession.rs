@@ -8,6 +8,9 @@
 
 use crate::geometry::{MAN_REACH_Y, NUM_RODS, Team, rod_of, rod_y};
 
+/// ITSF's possession limits, seconds: a five-man rod's and every other rod's.
+pub const ITSF_LIMITS_S: [f32; 2] = [10.0, 15.0];
+
 /// The rod (global index: yellow's four, then black's) within whose reach the ball's centre
 /// lies at world `ball_y` (cm), if any.
 pub fn rod_in_reach(ball_y: f32) -> Option<usize> {
