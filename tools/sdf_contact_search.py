@@ -1,113 +1,205 @@
-"""MuJoCo's SDF contact search between the ball and a man, rebuilt on a sampled distance
-field of the man's mesh, against the model's own contacts (docs/reference-game.md, "MuJoCo
-against itself"): a prototype for reproducing the model's contacts on our table.
+"""The man's distance field as the paper code's model has it, and MuJoCo's SDF contact
+search on it against the model's own contacts (docs/reference-game.md, "The model's
+contacts on our table").
 
-A measuring instrument, not part of the project; needs mujoco 3.3.2, numpy and scipy in a
-throwaway venv and a Foosball_CU checkout. Two steps:
+A measuring instrument, not part of the project; needs mujoco 3.3.2 and numpy in a
+throwaway venv and a Foosball_CU checkout. Three steps:
 
-    FOOSBALL_CU_SIM=<checkout>/foosball_sim/v2/foosball_sim.xml python tools/sdf_contact_search.py grid --out /tmp/man_sdf.npz
-    FOOSBALL_CU_SIM=<checkout>/foosball_sim/v2/foosball_sim.xml python tools/sdf_contact_search.py compare /tmp/man_sdf.npz --poses 300
+    FOOSBALL_CU_SIM=<checkout>/foosball_sim/v2/foosball_sim.xml python tools/sdf_contact_search.py grid
+    FOOSBALL_CU_SIM=<checkout>/foosball_sim/v2/foosball_sim.xml python tools/sdf_contact_search.py compare --poses 300
+    FOOSBALL_CU_SIM=<checkout>/foosball_sim/v2/foosball_sim.xml python tools/sdf_contact_search.py fixture --poses 120
 
-`grid` samples the signed distance of the man's mesh (as the model's `sdflib` plugin
-sees it: the mesh's vertices in the plugin's frame, coincident vertices merged) every
-0.05 cm: the exact distance to the nearest of the 96 triangles nearest by centroid, its
-sign from the nearest feature's angle-weighted pseudonormal (Baerentzen and Aanaes).
-`compare` runs MuJoCo 3.3.2's search (`engine_collision_sdf.c`, `mjc_SDF`:
-`sdf_initpoints` Halton starting points in the intersection of the two bounding boxes,
-`sdf_iterations` backtracking gradient steps on `A + B + |max(A, B)|`, one step on
-`max(A, B)`, a contact where that is at most 0, its normal the midsurface's gradient) on
-that grid (trilinear) and the ball's exact sphere, at random poses of the ball by yellow's
-centre midfielder (those of tools/mujoco_sensitivity.py's `--contact-poses`), and compares each
-pose's contacts with the model's: how many, their mean depth, mean normal and mean place.
-With `--model-moved EPS` it compares the model with itself at each pose and with the
-ball EPS cm further along x instead (how smoothly the model's contacts move).
+`grid` samples the man's signed distance and its gradient where the model's `sdflib`
+plugin computes them (its own functions, called through MuJoCo's plugin table: the
+octree the plugin builds from the mesh, signs and all) every `--step` cm over the
+plugin's box (the mesh's box and 10 % of its largest side around it), and writes the
+field the table ships, `crates/env/data/man_sdf.bin` (format in
+`crates/env/src/man_field.rs`): with it the pose of the field's frame in a man's frame
+(ours: the rod's frame at the man's x) and the corners of the man's bounding box (the
+model's `geom_aabb`) in the field's frame. `compare` runs MuJoCo 3.3.2's search
+(`engine_collision_sdf.c`, `mjc_SDF`: `sdf_initpoints` Halton starting points in the
+intersection of the two bounding boxes, `sdf_iterations` backtracking gradient steps on
+`A + B + |max(A, B)|`, one on `max(A, B)`, a contact where that is at most 0, its normal
+the midsurface's) on that field (value and gradient trilinear) and the ball's exact
+sphere, at random poses of the ball by yellow's centre midfielder (those of
+tools/mujoco_sensitivity.py's `--contact-poses`), and compares each pose's contacts with
+the model's: how many, their mean depth, mean normal and mean place. With
+`--model-moved EPS` it compares the model with itself at each pose and with the ball EPS
+cm further along x instead (how smoothly the model's contacts move). `fixture` writes the
+model's contacts at such poses for the table's test (`tests/data/sdf_contacts.json`).
 """
 import argparse
+import ctypes
+import json
 import os
-import time
+import struct
 
 import mujoco
 import numpy as np
 
 from mujoco_sensitivity import midfielder_pair, midfielder_poses
 
-
-def closest_on_triangles(p, a, b, c):
-    # Ericson's closest point on triangle, vectorised over rows
-    ab, ac, ap = b - a, c - a, p - a
-    d1, d2 = (ab * ap).sum(-1), (ac * ap).sum(-1)
-    bp = p - b; d3, d4 = (ab * bp).sum(-1), (ac * bp).sum(-1)
-    cp = p - c; d5, d6 = (ab * cp).sum(-1), (ac * cp).sum(-1)
-    va_ = d3 * d6 - d5 * d4; vb = d5 * d2 - d1 * d6; vc = d1 * d4 - d3 * d2
-    denom = 1.0 / np.where(va_ + vb + vc == 0, 1e-30, va_ + vb + vc)
-    v = vb * denom; w = vc * denom
-    res = a + ab * v[..., None] + ac * w[..., None]
-    region = np.zeros(res.shape[:-1], dtype=np.int8)
-    # edges and vertices
-    m1 = (d1 <= 0) & (d2 <= 0); res[m1] = a[m1]; region[m1] = 1
-    m2 = (d3 >= 0) & (d4 <= d3) & ~m1; res[m2] = b[m2]; region[m2] = 2
-    m3 = (d6 >= 0) & (d5 <= d6) & ~(m1 | m2); res[m3] = c[m3]; region[m3] = 3
-    m4 = (vc <= 0) & (d1 >= 0) & (d3 <= 0) & ~(m1 | m2 | m3)
-    t = d1 / np.where(d1 - d3 == 0, 1e-30, d1 - d3); res[m4] = (a + ab * t[..., None])[m4]; region[m4] = 4
-    m5 = (vb <= 0) & (d2 >= 0) & (d6 <= 0) & ~(m1 | m2 | m3 | m4)
-    t = d2 / np.where(d2 - d6 == 0, 1e-30, d2 - d6); res[m5] = (a + ac * t[..., None])[m5]; region[m5] = 5
-    m6 = (va_ <= 0) & ((d4 - d3) >= 0) & ((d5 - d6) >= 0) & ~(m1 | m2 | m3 | m4 | m5)
-    t = (d4 - d3) / np.where((d4 - d3) + (d5 - d6) == 0, 1e-30, (d4 - d3) + (d5 - d6))
-    res[m6] = (b + (c - b) * t[..., None])[m6]; region[m6] = 6
-    return res, region
+FIELD = "crates/env/data/man_sdf.bin"
+MAGIC = b"FOOSSDF1"
+DIST_UNIT = 2e-4  # cm per count of the stored distances
+GRAD_UNIT = 1.0 / 32000.0  # per count of the stored gradients (unit vectors, a little over 1 where rounded)
+MID_ROD = (0.0, -7.5, 7.75)  # yellow's midfield axis at x = 0, world, cm
 
 
-def sdf_man(x):
-    """The sampled distance at `x` (the plugin's frame, cm), trilinear, and its gradient."""
+def quat_mat(q):
+    r = np.zeros(9)
+    mujoco.mju_quat2Mat(r, q)
+    return r.reshape(3, 3)
+
+
+def mat_quat(r):
+    q = np.zeros(4)
+    mujoco.mju_mat2Quat(q, r.reshape(-1))
+    return q
+
+
+def halton(i, base):
+    """MuJoCo's mju_Halton: the radical inverse of `i` in `base`."""
+    f, r = 1.0 / base, 0.0
+    while i > 0:
+        r += f * (i % base)
+        i //= base
+        f /= base
+    return r
+
+
+def load():
+    m = mujoco.MjModel.from_xml_path(os.environ["FOOSBALL_CU_SIM"])
+    return m, mujoco.MjData(m)
+
+
+def plugin_functions(m, d, geom):
+    """The model's SDF plugin's distance and gradient for `geom`, as Python functions of a
+    point in the plugin's frame (cm)."""
+    lib = ctypes.CDLL(os.path.join(os.path.dirname(mujoco.__file__), f"libmujoco.so.{mujoco.__version__}"))
+    lib.mjp_getPluginAtSlot.restype = ctypes.c_void_p
+    instance = int(m.geom_plugin[geom])
+    plugin = lib.mjp_getPluginAtSlot(int(m.plugin[instance]))
+    vec = ctypes.POINTER(ctypes.c_double)
+    # mjpPlugin's sdf_distance and sdf_gradient (mjplugin.h, x86-64 offsets 112 and 120)
+    dist = ctypes.CFUNCTYPE(ctypes.c_double, vec, ctypes.c_void_p, ctypes.c_int)(
+        ctypes.c_void_p.from_address(plugin + 112).value)
+    grad = ctypes.CFUNCTYPE(None, vec, vec, ctypes.c_void_p, ctypes.c_int)(
+        ctypes.c_void_p.from_address(plugin + 120).value)
+    data, p, g = ctypes.c_void_p(d._address), (ctypes.c_double * 3)(), (ctypes.c_double * 3)()
+
+    def sample(x):
+        p[:] = x
+        grad(g, p, data, instance)
+        return dist(p, data, instance), np.array(g[:])
+    return sample
+
+
+def field_frame(m, d, geom):
+    """The plugin's frame in the world: `world = R x + t` (MuJoCo's `undoTransformation`)."""
+    mesh = m.geom_dataid[geom]
+    r = d.geom_xmat[geom].reshape(3, 3) @ quat_mat(m.mesh_quat[mesh]).T
+    return r, d.geom_xpos[geom] - r @ m.mesh_pos[mesh]
+
+
+def grid_main(a):
+    m, d = load()
+    mujoco.mj_forward(m, d)
+    _, man = midfielder_pair(m)
+    mesh = m.geom_dataid[man]
+    va, nv = m.mesh_vertadr[mesh], m.mesh_vertnum[mesh]
+    verts = m.mesh_vert[va:va + nv].astype(float) @ quat_mat(m.mesh_quat[mesh]).T + m.mesh_pos[mesh]
+    lo, hi = verts.min(0), verts.max(0)
+    margin = 0.1 * (hi - lo).max()  # sdflib.cc: box.addMargin(0.1 * largest side)
+    lo, hi = lo - margin, hi + margin
+    # inside the plugin's box (its gradient outside is a float finite difference: noise)
+    n = np.floor((hi - lo) / a.step - 1e-4).astype(int) + 1
+    sample = plugin_functions(m, d, man)
+    axes = [lo[i] + a.step * np.arange(n[i]) for i in range(3)]
+    points = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    values = np.array([np.r_[sample(p)] for p in points])
+    # the field's frame in our man frame (the rod's frame moved to the man's x: yellow's
+    # axes the world's, black's turned half a turn about z), the same for every man
+    def in_man_frame(g):
+        rod_joint = [j for j in range(m.njnt) if m.jnt_bodyid[j] == m.body_parentid[m.geom_bodyid[g]]][0]
+        turned = np.diag([1.0, 1.0, 1.0]) if d.xaxis[rod_joint][0] > 0 else np.diag([-1.0, -1.0, 1.0])
+        origin = np.r_[d.xpos[m.geom_bodyid[g]][0], d.xanchor[rod_joint][1:]]
+        rg, tg = field_frame(m, d, g)
+        return turned.T @ rg, turned.T @ (tg - origin)
+    r, t = in_man_frame(man)
+    for g in range(m.ngeom):
+        if m.geom_plugin[g] >= 0 and m.geom_dataid[g] == mesh:
+            rg, tg = in_man_frame(g)
+            assert np.abs(rg - r).max() < 1e-6 and np.abs(tg - t).max() < 1e-4, (g, tg, t)
+    aabb = m.geom_aabb[man]
+    rm, pm = quat_mat(m.mesh_quat[mesh]), m.mesh_pos[mesh]
+    corners = [rm @ np.array([aabb[k] + (aabb[k + 3] if c >> k & 1 else -aabb[k + 3]) for k in range(3)]) + pm
+               for c in range(8)]  # the geom's box corners, in the plugin's frame
+    dist = np.round(values[:, 0] / DIST_UNIT)
+    grad = np.round(values[:, 1:] / GRAD_UNIT)
+    assert np.abs(dist).max() < 32767 and np.abs(grad).max() <= 32767, (np.abs(values).max(0))
+    stored = np.c_[dist, grad].astype("<i2")
+    with open(a.out, "wb") as f:
+        f.write(MAGIC)
+        f.write(struct.pack("<3I", *n))
+        f.write(struct.pack("<5f", *lo, a.step, DIST_UNIT))
+        f.write(struct.pack("<7f", *t, *mat_quat(r)[[1, 2, 3, 0]]))  # x y z w
+        f.write(struct.pack("<24f", *np.ravel(corners)))
+        f.write(stored.tobytes())
+    print(f"{a.out}: {n.tolist()} points every {a.step} cm from {np.round(lo, 4).tolist()}, "
+          f"inside share {(values[:, 0] < 0).mean():.3f}, {os.path.getsize(a.out)} bytes")
+
+
+def read_field(path):
+    raw = open(path, "rb").read()
+    assert raw[:8] == MAGIC, f"{path}: not a field"
+    n = np.array(struct.unpack_from("<3I", raw, 8))
+    lo, h, unit = np.array(struct.unpack_from("<3f", raw, 20)), *struct.unpack_from("<2f", raw, 32)
+    body = np.frombuffer(raw, "<i2", offset=40 + 28 + 96).reshape(*n, 4).astype(float)
+    return lo, h, body[..., 0] * unit, body[..., 1:] * GRAD_UNIT
+
+
+def field_at(x):
+    """The stored field at `x` (the plugin's frame, cm): trilinear value and gradient; off
+    the grid, the value at its projection on the grid plus the distance to it (the
+    plugin's `boxProjection`)."""
+    top = lo + h * (np.array(D.shape) - 1)
+    out = np.linalg.norm(np.maximum(lo - x, 0) + np.maximum(x - top, 0))
+    x = np.clip(x, lo, top)
     u = (x - lo) / h
-    i = np.clip(np.floor(u).astype(int), 0, shape - 2)
-    f = np.clip(u - i, 0, 1)
-    c = D[i[0]:i[0] + 2, i[1]:i[1] + 2, i[2]:i[2] + 2]
-    cx = c[0] * (1 - f[0]) + c[1] * f[0]
-    cy = cx[0] * (1 - f[1]) + cx[1] * f[1]
-    val = cy[0] * (1 - f[2]) + cy[1] * f[2]
-    # gradient of the trilinear interpolant
-    gx = ((c[1] - c[0])[0] * (1 - f[1]) + (c[1] - c[0])[1] * f[1])
-    gx = (gx[0] * (1 - f[2]) + gx[1] * f[2]) / h
-    gy = (cx[1] - cx[0]); gy = (gy[0] * (1 - f[2]) + gy[1] * f[2]) / h
-    gz = (cy[1] - cy[0]) / h
-    return val, np.array([gx, gy, gz])
+    i = np.clip(np.floor(u).astype(int), 0, np.array(D.shape) - 2)
+    f = u - i
+    w = np.array([[1 - f[k], f[k]] for k in range(3)])
+    weights = w[0][:, None, None] * w[1][None, :, None] * w[2][None, None, :]
+    cell = (slice(i[0], i[0] + 2), slice(i[1], i[1] + 2), slice(i[2], i[2] + 2))
+    return (weights * D[cell]).sum() + out, (weights[..., None] * G[cell]).sum((0, 1, 2))
 
 
 def contacts_ours():
     """The search with the ball's sphere as g1 and the man as g2: (depth, world place,
     world normal from the ball to the man) per contact."""
     radius = m.geom_size[ball][0]
-    mid = m.geom_dataid[man]
-    # the man's true (plugin) frame in the world: geom pose o inverse(mesh pose)
-    Rg = d.geom_xmat[man].reshape(3, 3); pg = d.geom_xpos[man]
-    Rm = quat_mat(m.mesh_quat[mid]); pm = m.mesh_pos[mid]
-    R2 = Rg @ Rm.T; p2 = pg - R2 @ pm                 # world = R2 x + p2
-    c = d.geom_xpos[ball]; R1 = d.geom_xmat[ball].reshape(3, 3)
-    # aabbs in the sphere's frame
-    a2 = m.geom_aabb[man]; corners = []
-    for k in range(8):
-        v = np.array([a2[0] + (a2[3] if k & 1 else -a2[3]), a2[1] + (a2[4] if k & 2 else -a2[4]), a2[2] + (a2[5] if k & 4 else -a2[5])])
-        corners.append(R1.T @ (Rg @ v + pg - c))
-    corners = np.array(corners)
+    r2, p2 = field_frame(m, d, man)                  # world = r2 x + p2
+    c = d.geom_xpos[ball]; r1 = d.geom_xmat[ball].reshape(3, 3)
+    a2, rg, pg = m.geom_aabb[man], d.geom_xmat[man].reshape(3, 3), d.geom_xpos[man]
+    corners = np.array([r1.T @ (rg @ np.array([a2[k] + (a2[k + 3] if j >> k & 1 else -a2[k + 3]) for k in range(3)]) + pg - c)
+                        for j in range(8)])
     box = np.r_[np.maximum(-radius, corners.min(0)), np.minimum(radius, corners.max(0))]
     if (box[3:] < box[:3]).any():
         return []
-    to1 = lambda x: R1.T @ (R2 @ x + p2 - c)          # man-true -> sphere frame
-    def A(x):
-        y = to1(x); n = np.linalg.norm(y); return n - radius, (R2.T @ R1 @ (y / n))
-    def coll(x):
-        b, gb = sdf_man(x); a, ga = A(x)
-        val = a + b + abs(max(a, b))
-        g = ga + gb + (ga if a > b else gb) * (1 if max(a, b) > 0 else -1)
-        return val, g
-    def inter(x):
-        b, gb = sdf_man(x); a, ga = A(x)
-        return (b, gb) if b > a else (a, ga)
-    def mids(x):
-        b, gb = sdf_man(x); a, ga = A(x)
-        g = gb / np.linalg.norm(gb) - ga / np.linalg.norm(ga)
-        return b - a, g / np.linalg.norm(g)
+
+    def sphere(x):
+        y = r1.T @ (r2 @ x + p2 - c); n = np.linalg.norm(y)
+        return n - radius, r2.T @ r1 @ (y / n)
+
+    def collision(x):
+        a, ga = field_at(x); b, gb = sphere(x)
+        return a + b + abs(max(a, b)), ga + gb + (ga if a > b else gb) * (1 if max(a, b) > 0 else -1)
+
+    def intersection(x):
+        a, ga = field_at(x); b, gb = sphere(x)
+        return (a, ga) if a > b else (b, gb)
+
     def descend(x, f, n):
         dist = 1e10
         for _ in range(n):
@@ -121,18 +213,20 @@ def contacts_ours():
             if d0 < dist:
                 return x, dist
         return x, dist
-    out = []
+
+    out, seen = [], []
     for j in range(m.opt.sdf_initpoints):
         x1 = box[:3] + (box[3:] - box[:3]) * np.array([halton(j, 2), halton(j, 3), halton(j, 5)])
-        x = R2.T @ (c + R1 @ x1 - p2)                  # sphere frame -> man-true
-        x, _ = descend(x, coll, m.opt.sdf_iterations)
-        x, dist = descend(x, inter, 1)
-        if dist > 0:
+        x = r2.T @ (c + r1 @ x1 - p2)                  # sphere frame -> the field's
+        x, _ = descend(x, collision, m.opt.sdf_iterations)
+        x, dist = descend(x, intersection, 1)
+        if dist > 0 or any(np.linalg.norm(x - s) < mujoco.mjMINVAL for s in seen):
             continue
-        _, gm = mids(x)
-        normal = R2 @ (-gm)
-        pos = R2 @ x + p2 - normal * dist / 2
-        out.append(np.r_[dist, pos, normal])
+        seen.append(x)
+        ga, gb = field_at(x)[1], sphere(x)[1]
+        g = ga / np.linalg.norm(ga) - gb / np.linalg.norm(gb)
+        normal = r2 @ (-g / np.linalg.norm(g))
+        out.append(np.r_[dist, r2 @ x + p2 - normal * dist / 2, normal])
     return out
 
 
@@ -145,91 +239,12 @@ def contacts_model():
     return out
 
 
-def load():
-    m = mujoco.MjModel.from_xml_path(os.environ["FOOSBALL_CU_SIM"])
-    return m, mujoco.MjData(m)
-
-
-def grid_main(a):
-    from scipy.spatial import cKDTree
-
-    m, _ = load()
-    g = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "y_mid_guy3")
-    mid = m.geom_dataid[g]
-    va, nv = m.mesh_vertadr[mid], m.mesh_vertnum[mid]
-    fa, nf = m.mesh_faceadr[mid], m.mesh_facenum[mid]
-    V = m.mesh_vert[va:va + nv].astype(float)
-    F = m.mesh_face[fa:fa + nf]
-    Vt = V @ quat_mat(m.mesh_quat[mid]).T + m.mesh_pos[mid]  # the plugin's frame
-    key = np.round(Vt / 1e-5).astype(np.int64)
-    _, first, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
-    F = inv.reshape(-1)[F]
-    Vt = Vt[first]
-    T = Vt[F]
-    N = np.cross(T[:, 1] - T[:, 0], T[:, 2] - T[:, 0])
-    N /= np.linalg.norm(N, axis=1, keepdims=True) + 1e-30
-    VN = np.zeros((len(Vt), 3))
-    for k in range(3):
-        e1, e2 = T[:, (k + 1) % 3] - T[:, k], T[:, (k + 2) % 3] - T[:, k]
-        cos = (e1 * e2).sum(1) / (np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1) + 1e-30)
-        np.add.at(VN, F[:, k], np.arccos(np.clip(cos, -1, 1))[:, None] * N)
-    edges = {}
-    for f in range(len(F)):
-        for k in range(3):
-            e = tuple(sorted((F[f, k], F[f, (k + 1) % 3])))
-            edges[e] = edges.get(e, 0) + N[f]
-    lo, hi = Vt.min(0) - 0.4, Vt.max(0) + 0.4
-    axes = [np.arange(lo[i], hi[i] + a.step, a.step) for i in range(3)]
-    P = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
-    tree, K, D = cKDTree(T.mean(1)), 96, np.empty(len(P))
-    start = time.time()
-    for s in range(0, len(P), 8000):
-        p = P[s:s + 8000]
-        _, idx = tree.query(p, k=K)
-        pp = np.repeat(p[:, None], K, 1)
-        q, region = closest_on_triangles(pp, T[idx, 0], T[idx, 1], T[idx, 2])
-        dist = np.linalg.norm(pp - q, axis=-1)
-        j = dist.argmin(1)
-        r = np.arange(len(p))
-        f, reg = idx[r, j], region[r, j]
-        nrm = N[f].copy()
-        for code, k in ((1, 0), (2, 1), (3, 2)):
-            sel = reg == code
-            nrm[sel] = VN[F[f[sel], k]]
-        for code, (k, l) in ((4, (0, 1)), (5, (0, 2)), (6, (1, 2))):
-            sel = np.nonzero(reg == code)[0]
-            nrm[sel] = np.array([edges[tuple(sorted((F[f[i], k], F[f[i], l])))] for i in sel]).reshape(-1, 3)
-        side = ((p - q[r, j]) * nrm).sum(-1)
-        D[s:s + 8000] = np.where(side >= 0, dist[r, j], -dist[r, j])
-    shape = [len(x) for x in axes]
-    np.savez_compressed(a.out, lo=lo, h=a.step, d=D.reshape(shape).astype(np.float32))
-    print(f"{a.out}: grid {shape} at {a.step} cm, {time.time() - start:.0f} s, inside share {(D < 0).mean():.3f}")
-
-
-def quat_mat(q):
-    r = np.zeros(9)
-    mujoco.mju_quat2Mat(r, q)
-    return r.reshape(3, 3)
-
-
-def halton(i, base):
-    """MuJoCo's mju_Halton: the radical inverse of `i` in `base`."""
-    f, r = 1.0 / base, 0.0
-    while i > 0:
-        r += f * (i % base)
-        i //= base
-        f /= base
-    return r
-
-
 def compare_main(a):
-    global m, d, ball, man, lo, h, D, shape
+    global m, d, ball, man, lo, h, D, G
     m, d = load()
     ball_x = m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "ball_x")]
     ball, man = midfielder_pair(m)
-    G = np.load(a.grid)
-    lo, h, D = G["lo"], float(G["h"]), G["d"].astype(float)
-    shape = np.array(D.shape)
+    lo, h, D, G = read_field(a.field)
     both, only_model, only_ours = [], 0, 0
     for _ in midfielder_poses(m, d, a.poses):
         t = np.array(contacts_model())
@@ -259,19 +274,46 @@ def compare_main(a):
     print("distance between the mean places (cm):", q(b[:, 3]))
 
 
+def fixture_main(a):
+    """The model's contacts at `a.poses` poses: the rod's turn, the ball's centre (world,
+    cm) and each contact's depth, place and normal from the man to the ball (world)."""
+    global m, d, ball, man
+    m, d = load()
+    ball, man = midfielder_pair(m)
+    turn = m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "y_mid_rotation")]
+    poses = []
+    for _ in midfielder_poses(m, d, a.poses):
+        contacts = [{"dist": round(float(c[0]), 6), "point": np.round(c[1:4], 6).tolist(),
+                     "normal": np.round(-c[4:], 6).tolist()} for c in contacts_model()]
+        poses.append({"turn": round(float(d.qpos[turn]), 9), "ball": np.round(d.geom_xpos[ball], 6).tolist(),
+                      "contacts": contacts})
+    doc = {"what": "the paper code's MuJoCo model's contacts between the ball and yellow's centre "
+                   "midfielder (rod axis at x = 0, y = -7.5, z = 7.75, slide 0) at random poses, "
+                   "only that pair colliding; made by tools/sdf_contact_search.py fixture",
+           "mujoco": mujoco.__version__, "initpoints": int(m.opt.sdf_initpoints),
+           "iterations": int(m.opt.sdf_iterations), "radius": float(m.geom_size[ball][0]), "poses": poses}
+    with open(a.out, "w") as f:
+        json.dump(doc, f, indent=None, separators=(",", ":"))
+        f.write("\n")
+    print(f"{a.out}: {len(poses)} poses, {sum(1 for p in poses if p['contacts'])} touching")
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = p.add_subparsers(dest="cmd", required=True)
-    g = sub.add_parser("grid", help="sample the man's signed distance field")
-    g.add_argument("--out", required=True)
-    g.add_argument("--step", type=float, default=0.05, help="grid spacing, cm")
-    c = sub.add_parser("compare", help="the search on the grid against the model's contacts")
-    c.add_argument("grid")
+    g = sub.add_parser("grid", help="sample the model's own field of the man")
+    g.add_argument("--out", default=FIELD)
+    g.add_argument("--step", type=float, default=0.1, help="grid spacing, cm")
+    c = sub.add_parser("compare", help="the search on the field against the model's contacts")
+    c.add_argument("--field", default=FIELD)
     c.add_argument("--poses", type=int, default=300)
     c.add_argument("--model-moved", type=float, default=0.0,
                    help="compare the model with itself, its ball moved this far along x (cm), instead")
+    f = sub.add_parser("fixture", help="the model's contacts at random poses, for the table's test")
+    f.add_argument("--poses", type=int, default=120)
+    f.add_argument("--out", default="tests/data/sdf_contacts.json")
     a = p.parse_args()
-    grid_main(a) if a.cmd == "grid" else compare_main(a)
+    {"grid": grid_main, "compare": compare_main, "fixture": fixture_main}[a.cmd](a)
 
 
 if __name__ == "__main__":

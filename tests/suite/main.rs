@@ -34,6 +34,7 @@ mod render;
 mod report;
 mod resume;
 mod sb3_math;
+mod sdf_contacts;
 mod self_play;
 mod slurm;
 mod step_response;

@@ -789,6 +789,13 @@ pub enum ManContacts {
     /// rebound, friction 1 in a pyramidal cone with torsion, solved with the step's other
     /// forces. Needs `integrator = "mujoco_euler"`.
     MujocoSoft,
+    /// MuJoCo's soft contacts found as the reference model finds them: its SDF search
+    /// ([`crate::sdf_search`], 40 starting points) on the reference man's own distance
+    /// field ([`crate::man_field`]), a patch of up to 40 contacts per man where
+    /// `mujoco_soft` makes one on the men's colliders; the ball seen at the model's height
+    /// (its joints' origin, [`BallFrame::JOINT_ORIGIN`]). Same law and solve. Needs
+    /// `integrator = "mujoco_euler"`.
+    MujocoSdf,
 }
 
 /// Who controls black's rods.
@@ -926,13 +933,17 @@ impl FoosballConfig {
                  rod_mount = \"locked_axes\" allows; got \"joint\"",
             ));
         }
-        if self.man_contacts == ManContacts::MujocoSoft
-            && self.integrator != Integrator::MujocoEuler
-        {
+        if self.man_contacts != ManContacts::Rapier && self.integrator != Integrator::MujocoEuler {
+            let name = match self.man_contacts {
+                ManContacts::MujocoSdf => "mujoco_sdf",
+                _ => "mujoco_soft",
+            };
             return Err(ConfigError::new(
                 "man_contacts",
-                "man_contacts = \"mujoco_soft\" adds its forces to MuJoCo's explicit Euler step, \
-                 which needs integrator = \"mujoco_euler\"; got \"rapier\"",
+                format!(
+                    "man_contacts = \"{name}\" adds its forces to MuJoCo's explicit Euler step, \
+                     which needs integrator = \"mujoco_euler\"; got \"rapier\""
+                ),
             ));
         }
         at_least_one("frame_skip", self.frame_skip)?;

@@ -13,7 +13,9 @@
 //!   [`possession`]: ITSF's possession limits; [`starts`]: training episodes begun along
 //!   recorded ones (a reverse curriculum).
 //! - [`soft_contact`] and [`soft_stop`]: MuJoCo's soft constraints (the ball on the men,
-//!   the bumpers on the walls); [`servo`]: the rods' position servos.
+//!   the bumpers on the walls); [`man_field`] and [`sdf_search`]: the reference man's
+//!   distance field and MuJoCo's contact search on it; [`servo`]: the rods' position
+//!   servos.
 //! - [`config`]: the table's settings and presets, refused by key ([`config_error`]).
 //! - [`geometry`] and [`layout`]: the table's numbers and the observation/action index
 //!   table; [`seeding`]: how every random stream derives from one run seed.
@@ -27,6 +29,7 @@ pub mod env;
 pub mod foosball;
 pub mod geometry;
 pub mod layout;
+pub mod man_field;
 pub mod observation;
 pub mod opponent;
 pub mod pendulum;
@@ -34,6 +37,7 @@ pub mod possession;
 pub mod render;
 pub mod roster;
 pub mod scripted;
+pub mod sdf_search;
 pub mod seeding;
 pub mod servo;
 pub mod soft_contact;

@@ -109,6 +109,28 @@ impl SoftContact {
         contacts: &[ManContact],
         dt: f32,
     ) -> ContactForces {
+        let problem = self.problem(ball, rods, contacts, dt);
+        let generalised = if problem.rows.len() <= DUAL_ROWS_MAX {
+            problem.dual()
+        } else {
+            problem.primal()
+        };
+        ContactForces {
+            ball: [generalised[0], generalised[1]],
+            rods: (0..rods.len())
+                .map(|k| [generalised[2 + 2 * k], generalised[3 + 2 * k]])
+                .collect(),
+        }
+    }
+
+    /// The step's constraint rows: six cone edges per contact.
+    fn problem(
+        &self,
+        ball: &BallDofs,
+        rods: &[RodDofs],
+        contacts: &[ManContact],
+        dt: f32,
+    ) -> Problem {
         let dofs = 2 + 2 * rods.len();
         let inv_mass: Vec<f32> = [1.0 / ball.mass, 1.0 / ball.mass]
             .into_iter()
@@ -168,40 +190,174 @@ impl SoftContact {
             }
         }
 
-        // A + R and the dual's linear term.
-        let m = rows.len();
         let d = f64::from(self.law.impedance);
+        Problem {
+            inv_mass,
+            free,
+            rows,
+            reference,
+            regularisation: (1.0 - d) / d,
+        }
+    }
+}
+
+/// Above this many constraint rows (four contacts' cones: the exact single contacts of
+/// [`crate::config::ManContacts::MujocoSoft`]) the forces are found by the primal
+/// Newton method, below it by the dual's active set: the same optimum (unique), the dual's
+/// cost growing as rows cubed and more, the primal's as rows times degrees of freedom
+/// squared (a patch of MuJoCo's SDF search has up to 240 rows per man).
+const DUAL_ROWS_MAX: usize = 24;
+
+/// One step's soft contact problem: `M^-1` (diagonal), the accelerations `a_0` of the
+/// other forces, the cone edges' rows `J_e` and reference accelerations, and
+/// `(1 - d) / d`, which times `A_ee` is each edge's regularisation `R_e`.
+struct Problem {
+    inv_mass: Vec<f32>,
+    free: Vec<f32>,
+    rows: Vec<Vec<f32>>,
+    reference: Vec<f32>,
+    regularisation: f64,
+}
+
+impl Problem {
+    /// The generalised contact forces `J' f` from MuJoCo's dual problem, solved by the
+    /// active-set method ([`nonnegative_qp`]) in f64 on the f32 problem.
+    fn dual(&self) -> Vec<f32> {
+        let m = self.rows.len();
         let mut h = vec![0.0_f64; m * m];
         for i in 0..m {
             for j in 0..m {
-                h[i * m + j] = rows[i]
+                h[i * m + j] = self.rows[i]
                     .iter()
-                    .zip(&rows[j])
-                    .zip(&inv_mass)
+                    .zip(&self.rows[j])
+                    .zip(&self.inv_mass)
                     .map(|((a, b), w)| f64::from(a * b * w))
                     .sum();
             }
-            h[i * m + i] *= 1.0 + (1.0 - d) / d;
+            h[i * m + i] *= 1.0 + self.regularisation;
         }
-        let linear: Vec<f64> = rows
+        let linear: Vec<f64> = self
+            .rows
             .iter()
-            .zip(&reference)
-            .map(|(r, aref)| f64::from(dot(r, &free) - aref))
+            .zip(&self.reference)
+            .map(|(r, aref)| f64::from(dot(r, &self.free) - aref))
             .collect();
         let f = nonnegative_qp(&h, &linear);
-
-        let mut generalised = vec![0.0_f32; dofs];
-        for (row, fi) in rows.iter().zip(&f) {
+        let mut generalised = vec![0.0_f32; self.free.len()];
+        for (row, fi) in self.rows.iter().zip(&f) {
             for (g, r) in generalised.iter_mut().zip(row) {
                 *g += r * *fi as f32;
             }
         }
-        ContactForces {
-            ball: [generalised[0], generalised[1]],
-            rods: (0..rods.len())
-                .map(|k| [generalised[2 + 2 * k], generalised[3 + 2 * k]])
-                .collect(),
+        generalised
+    }
+
+    /// The generalised contact forces `M (a - a_0)` from the primal problem, as MuJoCo's
+    /// Newton solver poses it: the accelerations `a` minimising
+    ///
+    /// ```text
+    /// 1/2 (a - a_0)' M (a - a_0) + sum_e [J_e a < a_ref,e] (J_e a - a_ref,e)² / (2 R_e)
+    /// ```
+    ///
+    /// (each edge's force `f_e = max(0, -(J_e a - a_ref,e) / R_e)`: the dual's optimum).
+    /// Newton steps on the active edges' quadratic, each followed by an exact line search
+    /// along the piecewise-quadratic cost; finite for a convex piecewise quadratic.
+    fn primal(&self) -> Vec<f32> {
+        let wide = |v: &[f32]| -> Vec<f64> { v.iter().map(|&x| f64::from(x)).collect() };
+        let n = self.free.len();
+        let free = wide(&self.free);
+        let rows: Vec<Vec<f64>> = self.rows.iter().map(|r| wide(r)).collect();
+        let mass: Vec<f64> = self.inv_mass.iter().map(|&w| 1.0 / f64::from(w)).collect();
+        let product = |row: &[f64], v: &[f64]| row.iter().zip(v).map(|(a, b)| a * b).sum::<f64>();
+        // 1 / R_e, R_e = (1 - d) / d A_ee, A_ee = J_e M^-1 J_e'.
+        let weight: Vec<f64> = rows
+            .iter()
+            .map(|r| {
+                let diagonal: f64 = r.iter().zip(&mass).map(|(j, m)| j * j / m).sum();
+                1.0 / (self.regularisation * diagonal).max(1e-300)
+            })
+            .collect();
+        let reference = wide(&self.reference);
+        let mut a = free.clone();
+        for _ in 0..100 {
+            let residual: Vec<f64> = rows
+                .iter()
+                .zip(&reference)
+                .map(|(r, aref)| product(r, &a) - aref)
+                .collect();
+            let mut gradient: Vec<f64> = (0..n).map(|k| mass[k] * (a[k] - free[k])).collect();
+            let mut hessian = vec![0.0; n * n];
+            for k in 0..n {
+                hessian[k * n + k] = mass[k];
+            }
+            for (e, row) in rows.iter().enumerate() {
+                if residual[e] < 0.0 {
+                    for i in 0..n {
+                        gradient[i] += weight[e] * residual[e] * row[i];
+                        for j in 0..n {
+                            hessian[i * n + j] += weight[e] * row[i] * row[j];
+                        }
+                    }
+                }
+            }
+            let all: Vec<usize> = (0..n).collect();
+            let step = solve_free(&hessian, &gradient, &all);
+            let slopes: Vec<f64> = rows.iter().map(|r| product(r, &step)).collect();
+            let curvature: f64 = (0..n).map(|k| mass[k] * step[k] * step[k]).sum();
+            let scale: f64 = (0..n).map(|k| mass[k] * a[k] * a[k]).sum();
+            if curvature <= 1e-24 * (1.0 + scale) {
+                break;
+            }
+            let t = exact_line_search(
+                (0..n).map(|k| mass[k] * (a[k] - free[k]) * step[k]).sum(),
+                curvature,
+                &residual,
+                &slopes,
+                &weight,
+            );
+            for k in 0..n {
+                a[k] += t * step[k];
+            }
         }
+        (0..n)
+            .map(|k| (mass[k] * (a[k] - free[k])) as f32)
+            .collect()
+    }
+}
+
+/// The minimiser `t >= 0` of `phi(t) = start t + curvature t² / 2 + sum_e weight_e
+/// min(r_e + t q_e, 0)² / 2` (convex; its slope piecewise linear and increasing), walked
+/// from breakpoint to breakpoint.
+fn exact_line_search(
+    start: f64,
+    curvature: f64,
+    residual: &[f64],
+    slopes: &[f64],
+    weight: &[f64],
+) -> f64 {
+    let mut t = 0.0_f64;
+    loop {
+        // The edges active just after t, and phi'(s) = c0 + c1 s on that segment.
+        let (mut c0, mut c1, mut next) = (start, curvature, f64::INFINITY);
+        for e in 0..residual.len() {
+            let (r, q) = (residual[e], slopes[e]);
+            let at = r + t * q;
+            if at < 0.0 || (at == 0.0 && q < 0.0) {
+                c0 += weight[e] * r * q;
+                c1 += weight[e] * q * q;
+            }
+            if q != 0.0 {
+                let crossing = -r / q;
+                if crossing > t && crossing < next {
+                    next = crossing;
+                }
+            }
+        }
+        let root = -c0 / c1;
+        if root <= next || !next.is_finite() {
+            return root.max(t);
+        }
+        t = next;
     }
 }
 
@@ -444,6 +600,50 @@ mod tests {
         let forces = SoftContact::REFERENCE.solve(&b, &[r], &[c], DT);
         let turn_after = r.vel[1] + DT * forces.rods[0][1] / r.turn_inertia;
         assert!(turn_after.abs() < 3.0, "{turn_after}");
+    }
+
+    #[test]
+    fn the_primal_and_the_dual_find_the_same_forces() {
+        // Patches of 1 to 12 contacts spread over a man's shin and sole, the ball and the
+        // rod moving every way: the primal Newton method and the dual active set agree.
+        let mut seed = 12345_u64;
+        let mut uniform = move |lo: f32, hi: f32| {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            lo + (hi - lo) * ((seed >> 40) as f32 / (1u64 << 24) as f32)
+        };
+        for case in 0..40 {
+            let b = BallDofs {
+                free_acc: [uniform(-500.0, 500.0), uniform(-500.0, 500.0)],
+                ..ball([uniform(-300.0, 300.0), uniform(-300.0, 300.0)])
+            };
+            let r = RodDofs {
+                free_acc: [uniform(-3e3, 3e3), uniform(-300.0, 300.0)],
+                ..rod([uniform(-100.0, 100.0), uniform(-40.0, 40.0)])
+            };
+            let contacts: Vec<ManContact> = (0..1 + case % 12)
+                .map(|_| {
+                    let normal =
+                        Vector::new(uniform(-0.3, 0.3), uniform(0.5, 1.0), uniform(-0.5, 0.5));
+                    ManContact {
+                        rod: 0,
+                        point: Vector::new(uniform(-1.0, 1.0), -5.5, uniform(1.0, 3.0)),
+                        normal: normal.normalize(),
+                        dist: uniform(-0.2, 0.0),
+                    }
+                })
+                .collect();
+            let problem = SoftContact::REFERENCE.problem(&b, &[r], &contacts, DT);
+            let (dual, primal) = (problem.dual(), problem.primal());
+            let scale = dual.iter().fold(1.0_f32, |m, v| m.max(v.abs()));
+            for (d, p) in dual.iter().zip(&primal) {
+                assert!(
+                    (d - p).abs() < 1e-4 * scale,
+                    "case {case}: {dual:?} {primal:?}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -14,9 +14,11 @@ use std::sync::OnceLock;
 use rapier3d::prelude::*;
 
 use crate::config::{
-    BallModel, FoosballConfig, Integrator, ManContacts, MenShape, RodMount, SlideStops,
+    BallFrame, BallModel, FoosballConfig, Integrator, ManContacts, MenShape, RodMount, SlideStops,
 };
 use crate::geometry::{self, NUM_RODS, RodSpec, Team, foosman};
+use crate::man_field::ManField;
+use crate::sdf_search::{DQuat, DVec3, SdfSearch};
 use crate::servo::Servo;
 use crate::soft_contact::{BallDofs, ManContact, RodDofs, SoftContact};
 use crate::soft_stop::SoftStop;
@@ -166,6 +168,7 @@ impl Clone for Table {
             ball_drag: self.ball_drag,
             integrator: self.integrator,
             soft_contact: self.soft_contact,
+            sdf_search: self.sdf_search,
         }
     }
 }
@@ -182,6 +185,9 @@ pub struct Table {
     /// Under [`ManContacts::MujocoSoft`], the ball-man contacts this table computes itself
     /// (rapier's are then off).
     soft_contact: Option<SoftContact>,
+    /// Under [`ManContacts::MujocoSdf`], how those contacts are found: MuJoCo's search on
+    /// the reference man's field, not one exact contact per man collider.
+    sdf_search: Option<SdfSearch>,
 }
 
 /// The floor's pull on the moving ball.
@@ -385,7 +391,7 @@ impl Table {
             world.integration_parameters.normalized_prediction_distance = 0.0;
         }
 
-        let soft = params.man_contacts == ManContacts::MujocoSoft;
+        let soft = params.man_contacts != ManContacts::Rapier;
         let ground = world.insert_body(RigidBodyBuilder::fixed());
         for c in table_colliders() {
             world
@@ -571,6 +577,8 @@ impl Table {
             targets: [[0.0; 2]; NUM_RODS],
             integrator: params.integrator,
             soft_contact: soft.then_some(SoftContact::REFERENCE),
+            sdf_search: (params.man_contacts == ManContacts::MujocoSdf)
+                .then_some(SdfSearch::REFERENCE),
             ball_drag: if sliding {
                 BallDrag::PerAxis(params.axis_deceleration)
             } else {
@@ -714,6 +722,9 @@ impl Table {
     /// The ball's contacts with the men where the bodies are at the step's start (the
     /// reference's are found so), for [`ManContacts::MujocoSoft`]: rod index and contact.
     fn man_contacts(&self) -> Vec<(usize, ManContact)> {
+        if let Some(search) = &self.sdf_search {
+            return self.sdf_man_contacts(search);
+        }
         let centre = self.world.bodies[self.ball].translation();
         let ball_pose = Pose::from_translation(centre);
         let ball_shape = Ball::new(geometry::BALL_RADIUS);
@@ -743,6 +754,47 @@ impl Table {
                             point,
                             normal: -c.normal1,
                             dist: c.dist,
+                        },
+                    ));
+                }
+            }
+        }
+        out
+    }
+
+    /// The ball's contacts with the men as the reference model finds them, for
+    /// [`ManContacts::MujocoSdf`]: MuJoCo's SDF search between the ball, seen at the
+    /// model's height ([`BallFrame::JOINT_ORIGIN`]), and each man near it (its frame the
+    /// rod's moved to the man's x), on the reference man's field: rod index and contact.
+    fn sdf_man_contacts(&self, search: &SdfSearch) -> Vec<(usize, ManContact)> {
+        let field = ManField::reference();
+        let ball = self.world.bodies[self.ball].translation();
+        let centre = DVec3::new(
+            f64::from(ball.x),
+            f64::from(ball.y),
+            f64::from(BallFrame::JOINT_ORIGIN[2]),
+        );
+        let radius = f64::from(geometry::BALL_RADIUS);
+        let mut out = Vec::new();
+        for (i, rod) in self.rods.iter().enumerate() {
+            let pose = *self.world.bodies[rod.body].position();
+            let q = pose.rotation;
+            let rotation = DQuat::from_xyzw(q.x.into(), q.y.into(), q.z.into(), q.w.into());
+            for &x in geometry::rod_of(i).1.men_x {
+                let origin = pose * Vector::new(x, 0.0, 0.0);
+                let origin = DVec3::new(origin.x.into(), origin.y.into(), origin.z.into());
+                if origin.distance(centre) > field.reach + radius {
+                    continue;
+                }
+                for c in search.contacts(field, rotation, origin, centre, radius) {
+                    let vector = |v: DVec3| Vector::new(v.x as f32, v.y as f32, v.z as f32);
+                    out.push((
+                        i,
+                        ManContact {
+                            rod: 0,
+                            point: vector(c.point),
+                            normal: vector(c.normal),
+                            dist: c.dist as f32,
                         },
                     ));
                 }
