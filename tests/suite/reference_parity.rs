@@ -63,6 +63,14 @@ fn reference() -> FoosballConfig {
     FoosballConfig::preset(Preset::Reference)
 }
 
+/// `reference` with the model's own contact search on its man's field.
+fn sdf_contacts() -> FoosballConfig {
+    FoosballConfig {
+        man_contacts: ManContacts::MujocoSdf,
+        ..reference()
+    }
+}
+
 /// The third `reference`: rapier's ball-man contacts.
 fn rigid_contacts() -> FoosballConfig {
     let config = FoosballConfig::preset(Preset::ReferenceV3);
@@ -199,8 +207,15 @@ fn the_midfield_kick_leaves_and_comes_back_at_the_reference_speeds() {
     let Some(fx) = fixture() else { return };
     let theirs = &fx.kicks["mid+2.5"];
     // (contacts, the exit speed's bound): the soft contacts' 36 % over, a known gap
-    // (module docs), pinned at 40 %; rapier's within 15 %.
-    for (config, exit_bound) in [(reference(), 0.4), (rigid_contacts(), 0.15)] {
+    // (module docs), pinned at 40 %; the model's own search's 153 % over, a known gap of
+    // this one kick (one contact of its patch turned away from the rest; over the
+    // planner's 200 kicks the speed is the model's within 3 %, docs/reference-game.md),
+    // pinned at 160 %; rapier's within 15 %.
+    for (config, exit_bound) in [
+        (reference(), 0.4),
+        (sdf_contacts(), 1.6),
+        (rigid_contacts(), 0.15),
+    ] {
         let ours = kick(&config, theirs, 2.5);
         let exit = |rows: &[Row]| rows.iter().map(|r| r[4]).fold(f64::MIN, f64::max);
         let back = |rows: &[Row]| -rows.iter().map(|r| r[4]).fold(f64::MAX, f64::min);
@@ -320,7 +335,11 @@ fn scripted_episodes_end_as_the_references() {
     kick[action_turn(2)] = 1.0;
     let mut misses = Vec::new();
     // MuJoCo's soft contacts with no allowance; rapier's with their known gaps.
-    for (config, gaps) in [(reference(), &[][..]), (rigid_contacts(), &KNOWN_GAPS[..])] {
+    for (config, gaps) in [
+        (reference(), &[][..]),
+        (sdf_contacts(), &[][..]),
+        (rigid_contacts(), &KNOWN_GAPS[..]),
+    ] {
         let contacts = config.man_contacts;
         for (name, theirs) in &fx.episodes {
             let policy: Box<Policy> = match name.as_str() {
