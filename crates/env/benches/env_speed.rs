@@ -7,7 +7,8 @@
 //! `env_steps_per_s_frame_skip_1`, `vec_env_speedup_2_threads`,
 //! `render_frames_per_s_84x84`, ...); the figures ending in `_locked_axes` are those of
 //! `rod_mount = "locked_axes"`; `env_steps_per_s_frame_skip_1_rigid_contacts` that of
-//! `man_contacts = "rapier"` (the `reference_v3` game's).
+//! `man_contacts = "rapier"` (the `reference_v3` game's), `..._sdf_contacts` that of
+//! `man_contacts = "mujoco_sdf"` (the model's own contact search).
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -132,6 +133,15 @@ fn main() {
     print!("man_contacts rapier: ");
     let per_s = env_loop(rigid);
     out.push(("env_steps_per_s_frame_skip_1_rigid_contacts".into(), per_s));
+
+    // The model's own contact search on its man's field (`man_contacts = "mujoco_sdf"`).
+    let sdf = FoosballConfig {
+        man_contacts: ManContacts::MujocoSdf,
+        ..config.clone()
+    };
+    print!("man_contacts mujoco_sdf: ");
+    let per_s = env_loop(sdf);
+    out.push(("env_steps_per_s_frame_skip_1_sdf_contacts".into(), per_s));
 
     // The other rod mount: the bare table and the env loop at frame skips 1 and 5.
     let locked = FoosballConfig {
