@@ -125,23 +125,19 @@ fn main() {
         }
     }
 
-    // Rapier's ball-man contacts (`man_contacts = "rapier"`, `reference_v3`), frame skip 1.
-    let rigid = FoosballConfig {
-        man_contacts: ManContacts::Rapier,
-        ..config.clone()
-    };
-    print!("man_contacts rapier: ");
-    let per_s = env_loop(rigid);
-    out.push(("env_steps_per_s_frame_skip_1_rigid_contacts".into(), per_s));
-
-    // The model's own contact search on its man's field (`man_contacts = "mujoco_sdf"`).
-    let sdf = FoosballConfig {
-        man_contacts: ManContacts::MujocoSdf,
-        ..config.clone()
-    };
-    print!("man_contacts mujoco_sdf: ");
-    let per_s = env_loop(sdf);
-    out.push(("env_steps_per_s_frame_skip_1_sdf_contacts".into(), per_s));
+    // The other contact models at frame skip 1: rapier's (`reference_v3`) and the model's
+    // own contact search on its man's field.
+    for (man_contacts, name, figure) in [
+        (ManContacts::Rapier, "rapier", "rigid_contacts"),
+        (ManContacts::MujocoSdf, "mujoco_sdf", "sdf_contacts"),
+    ] {
+        print!("man_contacts {name}: ");
+        let per_s = env_loop(FoosballConfig {
+            man_contacts,
+            ..config.clone()
+        });
+        out.push((format!("env_steps_per_s_frame_skip_1_{figure}"), per_s));
+    }
 
     // The other rod mount: the bare table and the env loop at frame skips 1 and 5.
     let locked = FoosballConfig {
