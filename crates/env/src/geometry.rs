@@ -177,6 +177,10 @@ pub struct RodSpec {
     /// Turn servo stiffness (kg cm²/s² per rad) and damping (kg cm²/s per rad/s).
     pub turn_kp: f32,
     pub turn_kv: f32,
+    /// MuJoCo's `body_invweight0` of this rod's men, translational, 1/kg: the model's
+    /// mean inverse mass of a man's body at rest, which with the ball's sets the
+    /// regularisation of their soft contacts ([`crate::soft_contact::Regularisation`]).
+    pub man_inv_weight: f32,
 }
 
 /// The four rod kinds in the order used everywhere: goalie, defence, midfield, attack.
@@ -195,6 +199,7 @@ pub const RODS: [RodSpec; 4] = [
         turn_range: 2.5,
         turn_kp: 70_000.0,
         turn_kv: 1_000.0,
+        man_inv_weight: 0.475_947,
     },
     RodSpec {
         name: "defence",
@@ -210,6 +215,7 @@ pub const RODS: [RodSpec; 4] = [
         turn_range: 2.5,
         turn_kp: 40_000.0,
         turn_kv: 500.0,
+        man_inv_weight: 0.581_220,
     },
     RodSpec {
         name: "midfield",
@@ -225,6 +231,7 @@ pub const RODS: [RodSpec; 4] = [
         turn_range: 2.5,
         turn_kp: 150_000.0,
         turn_kv: 2_000.0,
+        man_inv_weight: 0.366_941,
     },
     RodSpec {
         name: "attack",
@@ -240,6 +247,7 @@ pub const RODS: [RodSpec; 4] = [
         turn_range: 2.5,
         turn_kp: 70_000.0,
         turn_kv: 1_000.0,
+        man_inv_weight: 0.469_197,
     },
 ];
 

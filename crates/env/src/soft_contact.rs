@@ -8,7 +8,8 @@
 //! the cone's edges `J_e = J_n ± mu J_t1`, `J_n ± mu J_t2`, `J_n ± mu_t J_spin`, each
 //! pushing only (`f_e >= 0`). Each edge is pulled towards its reference acceleration
 //! `a_ref,e = -b (J_e v) - k d r` ([`SoftStop::reference_acceleration`]) with the
-//! regularisation `R_e = (1 - d) / d A_ee`, and the forces solve MuJoCo's dual problem
+//! regularisation `R_e` ([`Regularisation`]: `(1 - d) / d A_ee`, or MuJoCo's own rule),
+//! and the forces solve MuJoCo's dual problem
 //!
 //! ```text
 //! min_{f >= 0}  1/2 f' (A + R) f + f' (J a_0 - a_ref),    A = J M^-1 J'
@@ -57,6 +58,9 @@ pub struct RodDofs {
     pub vel: [f32; 2],
     /// Slide (cm/s²) and angular (rad/s²) accelerations of the step's other forces.
     pub free_acc: [f32; 2],
+    /// MuJoCo's `body_invweight0` of the touched man, translational, 1/kg
+    /// ([`Regularisation::MujocoPyramid`]).
+    pub inv_weight: f32,
 }
 
 /// The ball's two slides (x, y).
@@ -68,6 +72,8 @@ pub struct BallDofs {
     pub vel: [f32; 2],
     /// Acceleration of the step's other forces, cm/s².
     pub free_acc: [f32; 2],
+    /// MuJoCo's `body_invweight0`, translational, 1/kg (its inverse mass).
+    pub inv_weight: f32,
 }
 
 /// The contact forces of one step: generalised forces to add to the others.
@@ -80,6 +86,21 @@ pub struct ContactForces {
     pub rods: Vec<[f32; 2]>,
 }
 
+/// How each cone edge's regularisation `R_e` is set.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Regularisation {
+    /// `R_e = (1 - d) / d A_ee` from each edge's exact `A_ee = J_e M^-1 J_e'` (the fourth
+    /// `reference`'s, kept for its committed runs).
+    EdgeDiagonal,
+    /// MuJoCo's (`mj_diagApprox`, `mj_makeImpedance`, `impratio` 1): one `R` for all six
+    /// edges of a contact, `2 mu² (1 + mu²) (1 - d) / d (w_ball + w_man)` with `mu` the
+    /// sliding friction and `w` the bodies' `body_invweight0`. It does not grow and
+    /// shrink with each edge's row: an edge whose row nearly vanishes (the normal and a
+    /// tangent nearly cancelling) stays as soft as the others, where `EdgeDiagonal`
+    /// makes it almost hard and its force unbounded.
+    MujocoPyramid,
+}
+
 /// The soft contact's constants.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SoftContact {
@@ -89,6 +110,8 @@ pub struct SoftContact {
     pub friction: f32,
     /// Torsional friction `mu_t`, cm (torque per unit of normal force).
     pub torsional_friction: f32,
+    /// How each edge is regularised.
+    pub regularisation: Regularisation,
 }
 
 impl SoftContact {
@@ -99,6 +122,7 @@ impl SoftContact {
         law: SoftStop::REFERENCE,
         friction: 1.0,
         torsional_friction: 0.1,
+        regularisation: Regularisation::EdgeDiagonal,
     };
 
     /// The contact forces of a step of `dt` seconds.
@@ -191,12 +215,28 @@ impl SoftContact {
         }
 
         let d = f64::from(self.law.impedance);
+        let ratio = (1.0 - d) / d;
+        let regularisation = match self.regularisation {
+            Regularisation::EdgeDiagonal => EdgeRegularisation::OfDiagonal(ratio),
+            Regularisation::MujocoPyramid => {
+                let mu2 = f64::from(self.friction * self.friction).max(1e-12);
+                EdgeRegularisation::Given(
+                    contacts
+                        .iter()
+                        .flat_map(|c| {
+                            let weight = f64::from(ball.inv_weight + rods[c.rod].inv_weight);
+                            [2.0 * mu2 * (1.0 + mu2) * ratio * weight; 6]
+                        })
+                        .collect(),
+                )
+            }
+        };
         Problem {
             inv_mass,
             free,
             rows,
             reference,
-            regularisation: (1.0 - d) / d,
+            regularisation,
         }
     }
 }
@@ -209,14 +249,20 @@ impl SoftContact {
 const DUAL_ROWS_MAX: usize = 24;
 
 /// One step's soft contact problem: `M^-1` (diagonal), the accelerations `a_0` of the
-/// other forces, the cone edges' rows `J_e` and reference accelerations, and
-/// `(1 - d) / d`, which times `A_ee` is each edge's regularisation `R_e`.
+/// other forces, the cone edges' rows `J_e` and reference accelerations, and their
+/// regularisation.
 struct Problem {
     inv_mass: Vec<f32>,
     free: Vec<f32>,
     rows: Vec<Vec<f32>>,
     reference: Vec<f32>,
-    regularisation: f64,
+    regularisation: EdgeRegularisation,
+}
+
+/// Each edge's `R_e`: `(1 - d) / d` times its `A_ee`, or given.
+enum EdgeRegularisation {
+    OfDiagonal(f64),
+    Given(Vec<f64>),
 }
 
 impl Problem {
@@ -234,7 +280,10 @@ impl Problem {
                     .map(|((a, b), w)| f64::from(a * b * w))
                     .sum();
             }
-            h[i * m + i] *= 1.0 + self.regularisation;
+            match &self.regularisation {
+                EdgeRegularisation::OfDiagonal(ratio) => h[i * m + i] *= 1.0 + ratio,
+                EdgeRegularisation::Given(r) => h[i * m + i] += r[i],
+            }
         }
         let linear: Vec<f64> = self
             .rows
@@ -272,9 +321,15 @@ impl Problem {
         // 1 / R_e, R_e = (1 - d) / d A_ee, A_ee = J_e M^-1 J_e'.
         let weight: Vec<f64> = rows
             .iter()
-            .map(|r| {
-                let diagonal: f64 = r.iter().zip(&mass).map(|(j, m)| j * j / m).sum();
-                1.0 / (self.regularisation * diagonal).max(1e-300)
+            .enumerate()
+            .map(|(e, r)| {
+                let regularisation = match &self.regularisation {
+                    EdgeRegularisation::OfDiagonal(ratio) => {
+                        ratio * r.iter().zip(&mass).map(|(j, m)| j * j / m).sum::<f64>()
+                    }
+                    EdgeRegularisation::Given(given) => given[e],
+                };
+                1.0 / regularisation.max(1e-300)
             })
             .collect();
         let reference = wide(&self.reference);
@@ -485,6 +540,7 @@ mod tests {
             turn_inertia: 3.35,
             vel,
             free_acc: [0.0, 0.0],
+            inv_weight: 0.367,
         }
     }
 
@@ -493,6 +549,7 @@ mod tests {
             mass: 0.1,
             vel,
             free_acc: [0.0, 0.0],
+            inv_weight: 10.0,
         }
     }
 

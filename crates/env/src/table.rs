@@ -20,7 +20,7 @@ use crate::geometry::{self, NUM_RODS, RodSpec, Team, foosman};
 use crate::man_field::ManField;
 use crate::sdf_search::{DQuat, DVec3, SdfSearch};
 use crate::servo::Servo;
-use crate::soft_contact::{BallDofs, ManContact, RodDofs, SoftContact};
+use crate::soft_contact::{BallDofs, ManContact, Regularisation, RodDofs, SoftContact};
 use crate::soft_stop::SoftStop;
 
 const TABLE_GROUP: Group = Group::GROUP_1;
@@ -576,7 +576,14 @@ impl Table {
             rods,
             targets: [[0.0; 2]; NUM_RODS],
             integrator: params.integrator,
-            soft_contact: soft.then_some(SoftContact::REFERENCE),
+            soft_contact: soft.then_some(match params.man_contacts {
+                // The model's contacts with the model's regularisation.
+                ManContacts::MujocoSdf => SoftContact {
+                    regularisation: Regularisation::MujocoPyramid,
+                    ..SoftContact::REFERENCE
+                },
+                _ => SoftContact::REFERENCE,
+            }),
             sdf_search: (params.man_contacts == ManContacts::MujocoSdf)
                 .then_some(SdfSearch::REFERENCE),
             ball_drag: if sliding {
@@ -835,6 +842,7 @@ impl Table {
                         rod_forces[i][0] / r.slide_mass,
                         rod_forces[i][1] / r.turn_inertia,
                     ],
+                    inv_weight: geometry::rod_of(i).1.man_inv_weight,
                 }
             })
             .collect();
@@ -853,6 +861,7 @@ impl Table {
                 mass: m,
                 vel: [v.x, v.y],
                 free_acc: [ball_force.x / m, ball_force.y / m],
+                inv_weight: 1.0 / m,
             },
             &rods,
             &contacts,
