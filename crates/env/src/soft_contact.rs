@@ -704,6 +704,24 @@ mod tests {
     }
 
     #[test]
+    fn mujocos_regularisation_is_the_models() {
+        // MuJoCo 3.3.2 on the reference model, the ball on yellow's centre midfielder:
+        // every edge of a contact gets efc_R = 0.41887 (w_ball 10, w_man 0.366941).
+        let law = SoftContact {
+            regularisation: Regularisation::MujocoPyramid,
+            ..SoftContact::REFERENCE
+        };
+        let problem = law.problem(&ball([0.0, -200.0]), &[rod([0.0, 0.0])], &[shin(-0.1)], DT);
+        let EdgeRegularisation::Given(r) = &problem.regularisation else {
+            panic!("MuJoCo's regularisation is given per edge");
+        };
+        assert_eq!(r.len(), 6);
+        for v in r {
+            assert!((v - 0.41887).abs() < 1e-4, "{r:?}");
+        }
+    }
+
+    #[test]
     fn the_frame_is_orthonormal_and_mujocos() {
         for n in [Vector::Y, Vector::X, Vector::new(0.683, -0.724, 0.098)] {
             let [a, b, c] = contact_frame(n);
