@@ -94,7 +94,11 @@ fn the_search_finds_the_models_contacts() {
         angles.push(n0.angle_between(n1).to_degrees());
         places.push(p0.distance(p1));
     }
-    for (what, v) in [("depth (cm)", &depths), ("normal (deg)", &angles), ("place (cm)", &places)] {
+    for (what, v) in [
+        ("depth (cm)", &depths),
+        ("normal (deg)", &angles),
+        ("place (cm)", &places),
+    ] {
         println!(
             "{what}: median {:.4}, 90th percentile {:.4} over {} touching poses",
             quantile(v.clone(), 0.5),

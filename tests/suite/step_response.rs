@@ -24,11 +24,11 @@
 //! MuJoCo's soft contacts decide them, and they differ (the worst figures are printed).
 //! Run with `--nocapture` for the worst case and step of each.
 
+use foosball_rl::env::config::ManContacts;
 use foosball_rl::env::geometry::RODS;
 use foosball_rl::env::layout::{
     BALL_POS, BALL_VEL, OBS_DIM, ROD_ANGLE, ROD_ANGLE_VEL, ROD_SLIDE, ROD_SLIDE_VEL,
 };
-use foosball_rl::env::config::ManContacts;
 use foosball_rl::env::{Env, FoosballConfig, FoosballEnv, Preset, ResetOptions};
 use serde::Deserialize;
 
