@@ -1084,6 +1084,12 @@ mod tests {
         let e = soft_on_rapier.validate().unwrap_err();
         assert_eq!(e.key, "man_contacts");
         assert!(e.to_string().contains("mujoco_euler"), "{e}");
+        let sdf_on_rapier = FoosballConfig {
+            man_contacts: ManContacts::MujocoSdf,
+            ..FoosballConfig::preset(Preset::ReferenceV2)
+        };
+        let e = sdf_on_rapier.validate().unwrap_err();
+        assert!(e.to_string().contains("\"mujoco_sdf\""), "{e}");
         FoosballConfig {
             man_contacts: ManContacts::MujocoSoft,
             ..FoosballConfig::default()
