@@ -68,19 +68,19 @@ impl Pair<'_> {
     }
 
     fn value(&self, objective: Objective, x: DVec3) -> f64 {
-        let ((a, _), (b, _)) = self.distances(x);
-        match objective {
-            Objective::Collision => a + b + a.max(b).abs(),
-            Objective::Intersection => a.max(b),
-        }
+        self.value_and_gradient(objective, x).0
     }
 
-    fn gradient(&self, objective: Objective, x: DVec3) -> DVec3 {
+    /// The objective at `x` and its gradient, from one sample of each distance.
+    fn value_and_gradient(&self, objective: Objective, x: DVec3) -> (f64, DVec3) {
         let ((a, ga), (b, gb)) = self.distances(x);
         let larger = if a > b { ga } else { gb };
         match objective {
-            Objective::Collision => ga + gb + larger * if a.max(b) > 0.0 { 1.0 } else { -1.0 },
-            Objective::Intersection => larger,
+            Objective::Collision => (
+                a + b + a.max(b).abs(),
+                ga + gb + larger * if a.max(b) > 0.0 { 1.0 } else { -1.0 },
+            ),
+            Objective::Intersection => (a.max(b), larger),
         }
     }
 
@@ -90,12 +90,11 @@ impl Pair<'_> {
     fn descend(&self, objective: Objective, x: &mut DVec3, steps: usize) -> f64 {
         let mut value = f64::MAX;
         for _ in 0..steps {
-            let gradient = self.gradient(objective, *x);
+            let (start_value, gradient) = self.value_and_gradient(objective, *x);
             if !gradient.is_finite() {
                 return f64::MAX;
             }
             let start = *x;
-            let start_value = self.value(objective, start);
             let (mut alpha, mut wolfe) = (2.0, -0.1 * 2.0 * gradient.length_squared());
             loop {
                 alpha *= 0.5;

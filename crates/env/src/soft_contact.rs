@@ -318,7 +318,7 @@ impl Problem {
         let rows: Vec<Vec<f64>> = self.rows.iter().map(|r| wide(r)).collect();
         let mass: Vec<f64> = self.inv_mass.iter().map(|&w| 1.0 / f64::from(w)).collect();
         let product = |row: &[f64], v: &[f64]| row.iter().zip(v).map(|(a, b)| a * b).sum::<f64>();
-        // 1 / R_e, R_e = (1 - d) / d A_ee, A_ee = J_e M^-1 J_e'.
+        // 1 / R_e (for `OfDiagonal`, R_e = (1 - d) / d A_ee, A_ee = J_e M^-1 J_e').
         let weight: Vec<f64> = rows
             .iter()
             .enumerate()
@@ -333,6 +333,7 @@ impl Problem {
             })
             .collect();
         let reference = wide(&self.reference);
+        let all: Vec<usize> = (0..n).collect();
         let mut a = free.clone();
         for _ in 0..100 {
             let residual: Vec<f64> = rows
@@ -355,7 +356,6 @@ impl Problem {
                     }
                 }
             }
-            let all: Vec<usize> = (0..n).collect();
             let step = solve_free(&hessian, &gradient, &all);
             let slopes: Vec<f64> = rows.iter().map(|r| product(r, &step)).collect();
             let curvature: f64 = (0..n).map(|k| mass[k] * step[k] * step[k]).sum();

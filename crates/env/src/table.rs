@@ -570,22 +570,26 @@ impl Table {
             .colliders
             .insert_with_parent(ball_collider, ball, &mut world.bodies);
 
+        let (soft_contact, sdf_search) = match params.man_contacts {
+            ManContacts::Rapier => (None, None),
+            ManContacts::MujocoSoft => (Some(SoftContact::REFERENCE), None),
+            // The model's contacts with the model's regularisation.
+            ManContacts::MujocoSdf => (
+                Some(SoftContact {
+                    regularisation: Regularisation::MujocoPyramid,
+                    ..SoftContact::REFERENCE
+                }),
+                Some(SdfSearch::REFERENCE),
+            ),
+        };
         Self {
             world,
             ball,
             rods,
             targets: [[0.0; 2]; NUM_RODS],
             integrator: params.integrator,
-            soft_contact: soft.then_some(match params.man_contacts {
-                // The model's contacts with the model's regularisation.
-                ManContacts::MujocoSdf => SoftContact {
-                    regularisation: Regularisation::MujocoPyramid,
-                    ..SoftContact::REFERENCE
-                },
-                _ => SoftContact::REFERENCE,
-            }),
-            sdf_search: (params.man_contacts == ManContacts::MujocoSdf)
-                .then_some(SdfSearch::REFERENCE),
+            soft_contact,
+            sdf_search,
             ball_drag: if sliding {
                 BallDrag::PerAxis(params.axis_deceleration)
             } else {
@@ -782,6 +786,7 @@ impl Table {
             f64::from(BallFrame::JOINT_ORIGIN[2]),
         );
         let radius = f64::from(geometry::BALL_RADIUS);
+        let vector = |v: DVec3| Vector::new(v.x as f32, v.y as f32, v.z as f32);
         let mut out = Vec::new();
         for (i, rod) in self.rods.iter().enumerate() {
             let pose = *self.world.bodies[rod.body].position();
@@ -794,7 +799,6 @@ impl Table {
                     continue;
                 }
                 for c in search.contacts(field, rotation, origin, centre, radius) {
-                    let vector = |v: DVec3| Vector::new(v.x as f32, v.y as f32, v.z as f32);
                     out.push((
                         i,
                         ManContact {
