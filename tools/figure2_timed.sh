@@ -3,8 +3,8 @@
 # seeds, 64x64, the whole protocol, the scripted baselines, then the report with the
 # planner beside them; two runs at a time, one thread each, on the build of BIN (default
 # target/release) and the configs of CONFIGS (default configs/, whose `backend = "auto"`
-# puts 64x64 networks on the host MLP path), into OUT (default results/figure2-v4), the
-# planner's figures from PLANNER (default results/planner/reference-v4; played first if
+# puts 64x64 networks on the host MLP path), into OUT (default results/figure2-v5), the
+# planner's figures from PLANNER (default results/planner/reference-v5; played first if
 # missing, inside the segment's time).
 #
 #   nohup bash tools/figure2_timed.sh > runs/logs/figure2-timed.out 2>&1 &
@@ -17,8 +17,8 @@ set -uo pipefail
 cd "$(dirname "$0")/.."
 bin=${BIN:-target/release}
 configs=${CONFIGS:-configs}
-out=${OUT:-results/figure2-v4}
-planner=${PLANNER:-results/planner/reference-v4}
+out=${OUT:-results/figure2-v5}
+planner=${PLANNER:-results/planner/reference-v5}
 mkdir -p "$out" runs/logs
 start=$(date +%s)
 echo "start $start $(date -u +%FT%TZ) rev $(cat "$bin/REV" 2>/dev/null || git rev-parse HEAD) nproc $(nproc)" >> "$out/timing.log"

@@ -8,6 +8,7 @@
 //! resume (a checkpoint does not hold them).
 
 use crate::config::RunConfig;
+use crate::play::scripted::Baseline;
 use crate::play::trajectories::{RecordedEpisode, read_trajectories};
 use foosball_algos::{Agent, Demonstration};
 use foosball_env::foosball::in_ball_frame;
@@ -127,8 +128,9 @@ pub fn as_observed(config: &RunConfig, states: &[f32]) -> Vec<f32> {
 
 /// The episodes of the files `paths`, in order, each with its file and its index there,
 /// for a run to learn from; one that starts from the run's evaluation or test starts
-/// (which would leak into its held-out seeds) or a file that cannot be read is refused,
-/// naming `key` and the file.
+/// (which would leak into its held-out seeds), a file recorded on another table than the
+/// run's ([`recorded_on_another_table`]) or one that cannot be read is refused, naming
+/// `key` and the file.
 pub fn learnable_episodes<'a>(
     config: &RunConfig,
     key: &str,
@@ -138,6 +140,9 @@ pub fn learnable_episodes<'a>(
     let mut kept = Vec::new();
     for path in paths {
         let refuse = |why: String| format!("{key} = \"{path}\": {why}");
+        if let Some(why) = recorded_on_another_table(config, Path::new(path))? {
+            return Err(refuse(why));
+        }
         for (k, e) in read_trajectories(Path::new(path))
             .map_err(refuse)?
             .into_iter()
@@ -154,6 +159,32 @@ pub fn learnable_episodes<'a>(
         }
     }
     Ok(kept)
+}
+
+/// Why the episodes of `trajectories` were played on another table than the run's, read
+/// from the `baseline.toml` that `evaluate` wrote beside them (`None` on the same table,
+/// or for a file with no such record); an unreadable record is an error.
+fn recorded_on_another_table(
+    config: &RunConfig,
+    trajectories: &Path,
+) -> Result<Option<String>, String> {
+    let Some(dir) = trajectories
+        .parent()
+        .filter(|d| d.join("baseline.toml").is_file())
+    else {
+        return Ok(None);
+    };
+    let recorded = Baseline::read(dir).map_err(|e| format!("its baseline.toml: {e}"))?;
+    Ok(config
+        .env
+        .table_difference(&recorded.env)
+        .map(|(key, ours, theirs)| {
+            format!(
+                "recorded on another table: `{key} = {theirs}` there (its baseline.toml), \
+             `{key} = {ours}` in this run; record them again on this run's table \
+             (`evaluate --config` with this run's config)"
+            )
+        }))
 }
 
 /// The reset seeds of the run's evaluation and test episodes, which no episode it learns

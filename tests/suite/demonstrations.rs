@@ -1,8 +1,8 @@
 //! Demonstrations (`protocol.demonstrations` + `off_policy.demo_share`): a run learns
 //! from a `trajectories.bin` that `evaluate` recorded, the same numbers twice and other
 //! numbers than without them, several files as one buffer; files recorded on the run's
-//! own evaluation or test starts, an image observation, a missing file, an empty list and
-//! half-set keys are refused by key.
+//! own evaluation or test starts or on another table, an image observation, a missing
+//! file, an empty list and half-set keys are refused by key.
 
 use crate::common;
 
@@ -136,4 +136,18 @@ fn demonstrations_that_do_not_fit_the_run_are_refused_by_key() {
     let images = with_demos(&file, "") + "[env.observation]\nkind = \"image\"\n";
     let err = run(&dir, "images", &images).unwrap_err();
     assert!(err.contains("this run observes images"), "{err}");
+    // Recorded on the fourth reference's contacts, learnt on the default's: another game.
+    let other_table =
+        with_demos(&file, "").replace("[env]\n", "[env]\nman_contacts = \"mujoco_soft\"\n");
+    let err = run(&dir, "other-table", &other_table).unwrap_err();
+    assert!(
+        err.contains("protocol.demonstrations")
+            && err.contains("recorded on another table")
+            && err.contains("man_contacts = \"mujoco_sdf\""),
+        "{err}"
+    );
+    // Other rules on the same table are fine.
+    let other_rules =
+        with_demos(&file, "").replace("[env]\n", "[env]\nrules.stagnant_steps = 12\n");
+    run(&dir, "other-rules", &other_rules).unwrap();
 }

@@ -65,16 +65,19 @@ fn a_shared_plan_plays_every_episode_alike_and_scores_on_its_starts_as_searched(
             assert_eq!(a, &plan[k][..], "episode {} step {t}", e.seed);
         }
     }
-    // Refined per episode from the shared plan, each plan replays as searched.
+    // Refined per episode from the shared plan, each plan replays as searched. (At the
+    // search's whole initial spread: the small budget's shared plan is too far from each
+    // start's best on `reference`'s SDF contacts for a narrow refinement, 0 of 4 at 0.2.)
     let refined = PlannerConfig {
-        refine_std: Some(0.2),
+        refine_std: Some(1.0),
         ..shared.clone()
     };
     let (episodes, cost) = play_planned(&env, &refined, (0, &seeds(4)), false).unwrap();
     assert_eq!(cost.shared.map(|s| s.plan), Some(plan));
     assert_eq!(cost.replayed_exactly, cost.within_rollout_cap);
     assert_eq!(cost.within_rollout_cap, 4);
-    assert!(episodes.iter().filter(|e| e.summary.scored).count() >= 2);
+    let scored = episodes.iter().filter(|e| e.summary.scored).count();
+    assert!(scored >= 2, "{scored} of 4 refined plans score");
     let starts: Vec<u64> = (0..8).map(|k| derive_seed(5, TEST_ENVS, k)).collect();
     let found = search_shared(&env, &starts, 9, &small()).unwrap();
     let mut table = foosball_rl::env::FoosballEnv::new(env.clone()).unwrap();

@@ -16,9 +16,9 @@
 //! - the first contact's step within 1 step of the reference's (the bar; the mesh's
 //!   leg prism meets the ball when the model's mesh man does).
 //!
-//! Each case runs twice: with the preset's contacts (`mujoco_soft`: one exact contact per
-//! man collider) and with the model's own contact search on its man's distance field
-//! (`man_contacts = "mujoco_sdf"`).
+//! Each case runs twice: with the preset's contacts (`mujoco_sdf`: the model's own contact
+//! search on its man's distance field) and with `reference_v4`'s (`mujoco_soft`: one exact
+//! contact per man collider).
 //!
 //! After the first contact the rods and the ball are not asserted: the men's shape and
 //! MuJoCo's soft contacts decide them, and they differ (the worst figures are printed).
@@ -170,12 +170,12 @@ impl Worst {
 
 #[test]
 fn every_case_of_the_step_response_matches_the_reference_model_until_the_ball_is_touched() {
-    every_case_matches(ManContacts::MujocoSoft);
+    every_case_matches(ManContacts::MujocoSdf);
 }
 
 #[test]
-fn with_the_models_contact_search_every_case_matches_too() {
-    every_case_matches(ManContacts::MujocoSdf);
+fn with_one_soft_contact_per_man_every_case_matches_too() {
+    every_case_matches(ManContacts::MujocoSoft);
 }
 
 /// Replays every case with the men's contacts `man_contacts`, asserting the module's

@@ -3,44 +3,47 @@
 //! Every struct rejects unknown keys, and [`FoosballConfig::validate`] names the offending
 //! key (dotted path, e.g. `randomization.ball_mass_scale`) and value.
 //!
-//! A configuration starts from a [`Preset`] (`preset = "reference" | "reference_v3" |
-//! "reference_v2" | "paper" | "end_on_goal" | "reference_v1" | "paper_v1"`, default
+//! A configuration starts from a [`Preset`] (`preset = "reference" | "reference_v4" |
+//! "reference_v3" | "reference_v2" | "paper" | "end_on_goal" | "reference_v1" |
+//! "paper_v1"`, default
 //! `reference`): keys written in the file override the preset's values, keys left out
 //! take them. The presets, with units:
 //!
-//! | key | `reference` | `reference_v3` | `reference_v2` | `paper` | `end_on_goal` | `reference_v1` | `paper_v1` |
-//! | --- | --- | --- | --- | --- | --- | --- | --- |
-//! | `ball_frame` (frame of every ball number, below) | joint | joint | joint | joint | joint | world | world |
-//! | `action_map` | saturating | saturating | saturating | saturating | saturating | linear | linear |
-//! | `slide_stops` | bumpers | bumpers | bumpers | bumpers | bumpers | control_range | control_range |
-//! | `ball.model` | reference | reference | reference | reference | reference | rolling | rolling |
-//! | `men_shape` | mesh | mesh | reference | reference | reference | box | box |
-//! | `contact_recycling` (rapier's; stale contacts at cm scale) | false | false | false | false | false | true | true |
-//! | `physics_dt` (s) | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 |
-//! | `frame_skip` (physics steps per agent step) | 1 | 1 | 1 | 5 | 5 | 1 | 5 |
-//! | `max_episode_steps` (agent steps) | 20000 (40 s) | 20000 (40 s) | 20000 (40 s) | 4000 (40 s) | 4000 (40 s) | 20000 (40 s) | 4000 (40 s) |
-//! | `rules.stagnant_steps` (agent steps at <= `stagnant_speed` = 0.5 cm/s) | 10 (20 ms) | 10 (20 ms) | 10 (20 ms) | 10 (100 ms) | 10 (100 ms) | 10 (20 ms) | 10 (100 ms) |
-//! | `rules.no_progress_steps` (agent steps without +y) | 15 (30 ms) | 15 (30 ms) | 15 (30 ms) | 15 (150 ms) | 15 (150 ms) | 15 (30 ms) | 15 (150 ms) |
-//! | `rules.end_on_goal` | false | false | false | false | true | false | false |
-//! | `rules.serve_again` (a point's end serves again, the episode goes on) | false | false | false | false | false | false | false |
-//! | `rules.possession` (ITSF's possession limits end a point) | false | false | false | false | false | false | false |
-//! | `reward.goal` (cm, in `ball_frame`) | (0, 65) | (0, 65) | (0, 65) | (0, 64) | (0, 64) | (0, 65) | (0, 64) |
-//! | `reward.goal_line_y` (in black's goal when y >= it) | 65 | 65 | 65 | 64 | 64 | 65 | 64 |
-//! | `reward.own_goal_line_y` (in yellow's goal when y <= -it) | 65 | 65 | 65 | 64 | 64 | 65 | 64 |
-//! | `reward.beta` | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 once | 1000 per step in goal | 1000 per step in goal |
-//! | `reward.zero_shaping_in_goal` (`alpha - d` is 0 in goal) | true | true | true | false | false | true | false |
-//! | `reward.conceded_penalty` (per step in own goal) | 1000 | 1000 | 1000 | 0 | 0 | 1000 | 0 |
-//! | `start.y_mean` (cm, in `ball_frame`) | 0.0 | 0.0 | 0.0 | -0.1 | -0.1 | -4.0 | -0.1 |
-//! | `integrator` (how a physics step is taken) | mujoco_euler | mujoco_euler | rapier | rapier | rapier | rapier | rapier |
-//! | `man_contacts` (the ball's contacts with the men) | mujoco_soft | rapier | rapier | rapier | rapier | rapier | rapier |
-//! | `ball.friction` (of every ball contact) | 1.0 | 1.0 | 0.01 | 0.01 | 0.01 | 0.3 | 0.3 |
-//! | `rod_mount` | locked_axes | locked_axes | joint | joint | joint | joint | joint |
-//! | `ball.planar` (no vertical ball motion) | true | true | true | true | true | true | false |
+//! | key | `reference` | `reference_v4` | `reference_v3` | `reference_v2` | `paper` | `end_on_goal` | `reference_v1` | `paper_v1` |
+//! | --- | --- | --- | --- | --- | --- | --- | --- | --- |
+//! | `ball_frame` (frame of every ball number, below) | joint | joint | joint | joint | joint | joint | world | world |
+//! | `action_map` | saturating | saturating | saturating | saturating | saturating | saturating | linear | linear |
+//! | `slide_stops` | bumpers | bumpers | bumpers | bumpers | bumpers | bumpers | control_range | control_range |
+//! | `ball.model` | reference | reference | reference | reference | reference | reference | rolling | rolling |
+//! | `men_shape` | mesh | mesh | mesh | reference | reference | reference | box | box |
+//! | `contact_recycling` (rapier's; stale contacts at cm scale) | false | false | false | false | false | false | true | true |
+//! | `physics_dt` (s) | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 |
+//! | `frame_skip` (physics steps per agent step) | 1 | 1 | 1 | 1 | 5 | 5 | 1 | 5 |
+//! | `max_episode_steps` (agent steps) | 20000 (40 s) | 20000 (40 s) | 20000 (40 s) | 20000 (40 s) | 4000 (40 s) | 4000 (40 s) | 20000 (40 s) | 4000 (40 s) |
+//! | `rules.stagnant_steps` (agent steps at <= `stagnant_speed` = 0.5 cm/s) | 10 (20 ms) | 10 (20 ms) | 10 (20 ms) | 10 (20 ms) | 10 (100 ms) | 10 (100 ms) | 10 (20 ms) | 10 (100 ms) |
+//! | `rules.no_progress_steps` (agent steps without +y) | 15 (30 ms) | 15 (30 ms) | 15 (30 ms) | 15 (30 ms) | 15 (150 ms) | 15 (150 ms) | 15 (30 ms) | 15 (150 ms) |
+//! | `rules.end_on_goal` | false | false | false | false | false | true | false | false |
+//! | `rules.serve_again` (a point's end serves again, the episode goes on) | false | false | false | false | false | false | false | false |
+//! | `rules.possession` (ITSF's possession limits end a point) | false | false | false | false | false | false | false | false |
+//! | `reward.goal` (cm, in `ball_frame`) | (0, 65) | (0, 65) | (0, 65) | (0, 65) | (0, 64) | (0, 64) | (0, 65) | (0, 64) |
+//! | `reward.goal_line_y` (in black's goal when y >= it) | 65 | 65 | 65 | 65 | 64 | 64 | 65 | 64 |
+//! | `reward.own_goal_line_y` (in yellow's goal when y <= -it) | 65 | 65 | 65 | 65 | 64 | 64 | 65 | 64 |
+//! | `reward.beta` | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 once | 1000 per step in goal | 1000 per step in goal |
+//! | `reward.zero_shaping_in_goal` (`alpha - d` is 0 in goal) | true | true | true | true | false | false | true | false |
+//! | `reward.conceded_penalty` (per step in own goal) | 1000 | 1000 | 1000 | 1000 | 0 | 0 | 1000 | 0 |
+//! | `start.y_mean` (cm, in `ball_frame`) | 0.0 | 0.0 | 0.0 | 0.0 | -0.1 | -0.1 | -4.0 | -0.1 |
+//! | `integrator` (how a physics step is taken) | mujoco_euler | mujoco_euler | mujoco_euler | rapier | rapier | rapier | rapier | rapier |
+//! | `man_contacts` (the ball's contacts with the men) | mujoco_sdf | mujoco_soft | rapier | rapier | rapier | rapier | rapier | rapier |
+//! | `ball.friction` (of every ball contact) | 1.0 | 1.0 | 1.0 | 0.01 | 0.01 | 0.01 | 0.3 | 0.3 |
+//! | `rod_mount` | locked_axes | locked_axes | locked_axes | joint | joint | joint | joint | joint |
+//! | `ball.planar` (no vertical ball motion) | true | true | true | true | true | true | true | false |
 //!
 //! `reference` is the paper's code (Foosball_CU v2 gym and its MuJoCo model), its rods
-//! moved step by step as MuJoCo moves them and the ball's contacts with the men made as
-//! MuJoCo makes them (soft); `reference_v3` is the same game with rapier's rigid contacts
-//! between the ball and the men (kept so that the runs made on it still replay);
+//! moved step by step as MuJoCo moves them and the ball's contacts with the men found and
+//! made as MuJoCo finds and makes them (its SDF search on the model's man field, soft
+//! contacts); `reference_v4` is the same game with one soft contact per man on our men's
+//! colliders, `reference_v3` the same game with rapier's rigid contacts between the ball
+//! and the men (both kept so that the runs made on them still replay);
 //! `reference_v2` is `reference_v3` with this project's first servo, whose rods lag the
 //! model's first steps (kept for its runs too); `paper` and `end_on_goal` read the text's
 //! numbers in the code's frame on the code's table (with the first servo);
@@ -69,10 +72,16 @@ pub enum Preset {
     /// contacts, slides stopped by the rods' bumpers, one 2 ms physics step per agent step
     /// (its counters are 20 ms and 30 ms), each step taken as MuJoCo takes it
     /// ([`Integrator::MujocoEuler`]) with the mesh's men ([`MenShape::Mesh`]), the
-    /// ball's contacts with them MuJoCo's soft ones ([`ManContacts::MujocoSoft`]). The
-    /// default: it is what produced the paper's figures.
+    /// ball's contacts with them found by the model's own search on its man field and
+    /// made soft as MuJoCo makes them ([`ManContacts::MujocoSdf`]). The default: it is
+    /// what produced the paper's figures.
     #[default]
     Reference,
+    /// The fourth `reference` of this project: the same game with one soft contact per
+    /// man on our men's colliders ([`ManContacts::MujocoSoft`]), whose kicks leave 11 %
+    /// slower and 5 degrees further off the model's. The game of `results/figure2-v4`,
+    /// `results/recipe-v4`, `results/planner/reference-v4` and `results/league/leaderboard-v4`.
+    ReferenceV4,
     /// The third `reference` of this project: the same game with rapier's rigid contacts
     /// between the ball and the men ([`ManContacts::Rapier`]), whose constant-kick and
     /// random episodes end 15-25 % sooner than the model's. The game of
@@ -101,8 +110,9 @@ pub enum Preset {
 
 impl Preset {
     /// Every preset, in documentation order.
-    pub const ALL: [Preset; 7] = [
+    pub const ALL: [Preset; 8] = [
         Preset::Reference,
+        Preset::ReferenceV4,
         Preset::ReferenceV3,
         Preset::ReferenceV2,
         Preset::Paper,
@@ -115,6 +125,7 @@ impl Preset {
     pub fn name(self) -> &'static str {
         match self {
             Preset::Reference => "reference",
+            Preset::ReferenceV4 => "reference_v4",
             Preset::ReferenceV3 => "reference_v3",
             Preset::ReferenceV2 => "reference_v2",
             Preset::Paper => "paper",
@@ -289,6 +300,11 @@ impl FoosballConfig {
             },
             Preset::Reference => Self {
                 preset,
+                man_contacts: ManContacts::MujocoSdf,
+                ..Self::preset(Preset::ReferenceV4)
+            },
+            Preset::ReferenceV4 => Self {
+                preset,
                 man_contacts: ManContacts::MujocoSoft,
                 ..Self::preset(Preset::ReferenceV3)
             },
@@ -304,6 +320,34 @@ impl FoosballConfig {
                 ..Self::preset(Preset::ReferenceV2)
             },
         }
+    }
+
+    /// The keys that decide how an action moves the rods and the ball: a state and an
+    /// action recorded on one table are the same transition on another only where these
+    /// agree (the rules, the reward, the starts and the opponent may differ).
+    pub const TABLE_KEYS: [&'static str; 10] = [
+        "action_map",
+        "slide_stops",
+        "men_shape",
+        "contact_recycling",
+        "physics_dt",
+        "frame_skip",
+        "ball",
+        "rod_mount",
+        "integrator",
+        "man_contacts",
+    ];
+
+    /// The first of [`Self::TABLE_KEYS`] (dotted below `ball`) on which `other` is another
+    /// table than `self`: `(key, self's value, other's value)`, the values as TOML writes
+    /// them; `None` on the same table.
+    pub fn table_difference(&self, other: &Self) -> Option<(String, String, String)> {
+        let toml_of =
+            |c: &Self| toml::Value::try_from(c).expect("a configuration always serialises");
+        let (ours, theirs) = (toml_of(self), toml_of(other));
+        Self::TABLE_KEYS
+            .iter()
+            .find_map(|&key| first_difference(key.to_string(), ours.get(key), theirs.get(key)))
     }
 
     /// The reward's goal point in world coordinates, cm.
@@ -328,6 +372,23 @@ impl FoosballConfig {
         let [ox, oy, _] = self.ball_frame.origin();
         [self.start.x_mean + ox, self.start.y_mean + oy]
     }
+}
+
+/// The first dotted key below `key` where `a` and `b` differ, with both values as TOML
+/// writes them (`unset` where one has no such key).
+fn first_difference(
+    key: String,
+    a: Option<&toml::Value>,
+    b: Option<&toml::Value>,
+) -> Option<(String, String, String)> {
+    if let (Some(toml::Value::Table(x)), Some(toml::Value::Table(y))) = (a, b) {
+        return x
+            .keys()
+            .chain(y.keys())
+            .find_map(|k| first_difference(format!("{key}.{k}"), x.get(k), y.get(k)));
+    }
+    let show = |v: Option<&toml::Value>| v.map_or("unset".to_string(), |v| v.to_string());
+    (a != b).then(|| (key, show(a), show(b)))
 }
 
 /// The frame of the ball's numbers in the rules, the start and the observation.
@@ -1096,6 +1157,31 @@ mod tests {
         }
         .validate()
         .unwrap();
+    }
+
+    #[test]
+    fn another_table_is_named_by_its_first_differing_key() {
+        let ours = FoosballConfig::default();
+        let mut other = FoosballConfig::preset(Preset::ReferenceV4);
+        assert_eq!(
+            ours.table_difference(&other),
+            Some((
+                "man_contacts".into(),
+                "\"mujoco_sdf\"".into(),
+                "\"mujoco_soft\"".into()
+            ))
+        );
+        other.man_contacts = ManContacts::MujocoSdf;
+        assert_eq!(ours.table_difference(&other), None);
+        // Rules, reward, starts and opponent are not the table.
+        other.rules.stagnant_steps = 3;
+        other.reward.beta = 1.0;
+        other.start.y_mean = 5.0;
+        other.opponent = OpponentKind::Shooter;
+        assert_eq!(ours.table_difference(&other), None);
+        other.ball.friction = 0.5;
+        let (key, _, theirs) = ours.table_difference(&other).unwrap();
+        assert_eq!((key.as_str(), theirs.as_str()), ("ball.friction", "0.5"));
     }
 
     #[test]
