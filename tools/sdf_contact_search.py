@@ -245,7 +245,7 @@ def compare_main(a):
     ball_x = m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "ball_x")]
     ball, man = midfielder_pair(m)
     lo, h, D, G = read_field(a.field)
-    both, only_model, only_ours = [], 0, 0
+    both, only_model, only_ours, stray = [], 0, 0, 0
     for _ in midfielder_poses(m, d, a.poses):
         t = np.array(contacts_model())
         if a.model_moved:
@@ -258,6 +258,8 @@ def compare_main(a):
         if len(t) and len(o):
             nt, no = t[:, 4:].mean(0), o[:, 4:].mean(0)
             cos = nt @ no / np.linalg.norm(nt) / np.linalg.norm(no)
+            # a contact of ours more than 0.5 cm from every one of the model's
+            stray += any(np.linalg.norm(t[:, 1:4] - p, axis=1).min() > 0.5 for p in o[:, 1:4])
             both.append((len(t) - len(o), abs(t[:, 0].mean() - o[:, 0].mean()),
                          np.degrees(np.arccos(np.clip(cos, -1, 1))),
                          np.linalg.norm(t[:, 1:4].mean(0) - o[:, 1:4].mean(0))))
@@ -268,6 +270,7 @@ def compare_main(a):
     b = np.array(both)
     q = lambda v: f"median {np.median(v):.3f} [{np.quantile(v, .25):.3f}, {np.quantile(v, .75):.3f}]"
     print(f"{a.poses} poses: touching on both {len(b)}, on the model only {only_model}, here only {only_ours}")
+    print(f"poses touching on both with a contact here 0.5 cm or more from all the model's: {stray}")
     print("contacts, the model's less ours:", q(b[:, 0]))
     print("mean depth difference (cm):", q(b[:, 1]))
     print("angle between the mean normals (deg):", q(b[:, 2]))
