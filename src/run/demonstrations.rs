@@ -140,7 +140,7 @@ pub fn learnable_episodes<'a>(
     let mut kept = Vec::new();
     for path in paths {
         let refuse = |why: String| format!("{key} = \"{path}\": {why}");
-        if let Some(why) = recorded_on_another_table(config, Path::new(path))? {
+        if let Some(why) = recorded_on_another_table(config, Path::new(path)).map_err(refuse)? {
             return Err(refuse(why));
         }
         for (k, e) in read_trajectories(Path::new(path))
