@@ -7,8 +7,8 @@
 //!   (AVX2 + FMA) and, where the CPU has it, 512-bit (AVX-512F) vectors; the larger is
 //!   the core's f32 peak. A 512-bit FMA counts 32 FLOPs, whatever the core's datapath
 //!   width (some cores split it in two halves: then both widths give one rate).
-//! - **gemm**: one `[n, n] x [n, n]` product through the `gemm` crate on one thread (the
-//!   host path's kernels), n = 1024, for how near a real product comes to the peak.
+//! - **gemm**: one `[n, n] x [n, n]` product through the host MLP path's `gemm` on one
+//!   thread, n = 1024, for how near a real product comes to the peak.
 //! - **FLOPs of an update**, batch 256, 38-dim observations and 8-dim actions, counted
 //!   from the layer shapes as the host path computes them (`host_critic`, `host_actor`,
 //!   the algorithms' `*_networks` steps): every forward pass, every weight gradient, and
@@ -28,6 +28,7 @@
 //! (`fma_peak_gflops`, `fma256_gflops`, `fma512_gflops`, `gemm_1024_gflops`,
 //! `sac_update_mflop_64x64`, `sac_floor_ms_64x64`, the same for TD3 and for 256x256).
 
+use foosball_nets::{Activation, HostMlp, MlpTape};
 use std::time::Instant;
 
 #[path = "../../../benches/figures.rs"]
@@ -162,37 +163,16 @@ mod fma {
     }
 }
 
-/// GFLOP/s of one `[n, n] x [n, n]` f32 product on one thread through `gemm`.
+/// GFLOP/s of one `[n, n] x [n, n]` f32 product on one thread: a one-layer host MLP of
+/// `n` inputs and `n` outputs on a batch of `n` rows (its forward pass is that product
+/// through `gemm` and a bias row per sample).
 fn gemm_rate(n: usize) -> f64 {
-    let a: Vec<f32> = (0..n * n).map(|i| (i % 7) as f32 * 0.1).collect();
-    let b: Vec<f32> = (0..n * n).map(|i| (i % 5) as f32 * 0.1).collect();
-    let mut c = vec![0.0_f32; n * n];
+    let params: Vec<f32> = (0..(n + 1) * n).map(|i| (i % 7) as f32 * 0.01).collect();
+    let layer = HostMlp::new(vec![n, n], Activation::Relu, params).expect("a one-layer MLP");
+    let x: Vec<f32> = (0..n * n).map(|i| (i % 5) as f32 * 0.1).collect();
+    let mut tape = MlpTape::default();
     rate(2.0 * (n * n * n) as f64, 1, |_| {
-        // SAFETY: three distinct `n x n` row-major buffers, strides within them.
-        unsafe {
-            gemm::gemm(
-                n,
-                n,
-                n,
-                c.as_mut_ptr(),
-                1,
-                n as isize,
-                false,
-                a.as_ptr(),
-                1,
-                n as isize,
-                b.as_ptr(),
-                1,
-                n as isize,
-                1.0,
-                1.0,
-                false,
-                false,
-                false,
-                gemm::Parallelism::None,
-            );
-        }
-        c[0]
+        layer.forward(&x, &mut tape)[0]
     })
 }
 
