@@ -40,31 +40,19 @@ const ACT: usize = 8;
 /// Independent accumulators: enough to cover the FMA latency on two pipes.
 const LANES_ACC: usize = 12;
 
-/// Multiply-adds of one dense layer per sample.
-fn macs(d_in: usize, d_out: usize) -> usize {
-    d_in * d_out
-}
-
-/// Per-sample multiply-adds of a two-hidden-layer MLP `input -> h -> h -> output`: the
-/// forward pass, the weight gradients, and the input gradients of layers 1 and 2 (and of
-/// layer 0 when `input_grads`).
+/// Per-sample multiply-adds of a two-hidden-layer MLP `input -> h -> h -> output`: its
+/// forward pass (a weight gradient costs the same), the input gradients of layers 1 and 2,
+/// and those of layer 0 (needed only where a critic is walked back to its action input).
 struct Passes {
     forward: usize,
-    weights: usize,
     inputs_above_first: usize,
     first_inputs: usize,
 }
 
 fn passes(input: usize, hidden: usize, output: usize) -> Passes {
-    let layers = [
-        macs(input, hidden),
-        macs(hidden, hidden),
-        macs(hidden, output),
-    ];
-    let forward = layers.iter().sum();
+    let layers = [input * hidden, hidden * hidden, hidden * output];
     Passes {
-        forward,
-        weights: forward,
+        forward: layers.iter().sum(),
         inputs_above_first: layers[1] + layers[2],
         first_inputs: layers[0],
     }
@@ -76,11 +64,11 @@ fn sac_flops(hidden: usize) -> f64 {
     let critic = passes(OBS + ACT, hidden, 1);
     let per_sample = actor.forward // a' on s'
         + 2 * critic.forward // target critics on (s', a')
-        + 2 * (critic.forward + critic.weights + critic.inputs_above_first) // critics' loss
+        + 2 * (2 * critic.forward + critic.inputs_above_first) // critics' loss
         + actor.forward // a~ on s
         + 2 * (critic.forward + critic.inputs_above_first + critic.first_inputs) // to a~
-        + actor.weights
-        + actor.inputs_above_first; // the actor back
+        + actor.forward // the actor's weight gradients
+        + actor.inputs_above_first;
     2.0 * (per_sample * BATCH) as f64
 }
 
@@ -90,12 +78,12 @@ fn td3_flops(hidden: usize) -> f64 {
     let critic = passes(OBS + ACT, hidden, 1);
     let every = actor.forward // target actor on s'
         + 2 * critic.forward // target critics
-        + 2 * (critic.forward + critic.weights + critic.inputs_above_first);
+        + 2 * (2 * critic.forward + critic.inputs_above_first);
     let delayed = actor.forward
         + critic.forward
         + critic.inputs_above_first
         + critic.first_inputs
-        + actor.weights
+        + actor.forward // the actor's weight gradients
         + actor.inputs_above_first;
     2.0 * (every * BATCH) as f64 + (delayed * BATCH) as f64
 }
