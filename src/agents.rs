@@ -1,7 +1,7 @@
 //! The learner a run configuration asks for, on the device of its backend.
 
 use crate::config::{AlgoConfig, RunConfig};
-use foosball_algos::{Agent, Ppo, Sac, Td3};
+use foosball_algos::{Agent, Normalized, Ppo, Sac, Td3};
 use foosball_env::layout;
 use foosball_env::seeding::{LEARNER, derive_seed};
 use foosball_env::{ObservationConfig, ObservationKind};
@@ -14,8 +14,18 @@ const VALIDATED: &str = "RunConfig::validate admits only what the host path comp
 /// The agent `config` asks for, its networks drawn from the learner stream; its input is
 /// the observation `config.env` gives (38 state values, or an image through a CNN). Where
 /// [`RunConfig::computes_on_host`] the same networks compute on the host MLP path (a
-/// validated config).
+/// validated config). Under `[normalize]` the learner sees normalised observations and
+/// rewards ([`Normalized`]).
 pub fn build_agent(config: &RunConfig, device: &Device) -> Box<dyn Agent + Send> {
+    let learner = build_learner(config, device);
+    match &config.normalize {
+        Some(n) => Box::new(Normalized::new(learner, n.clone())),
+        None => learner,
+    }
+}
+
+/// The algorithm's learner alone, without normalisation.
+fn build_learner(config: &RunConfig, device: &Device) -> Box<dyn Agent + Send> {
     let seed = derive_seed(config.protocol.seed, LEARNER, 0);
     let (o, a) = (obs_shape(&config.env.observation), layout::ACTION_DIM);
     let on_host = config.computes_on_host();

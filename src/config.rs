@@ -3,7 +3,9 @@
 //! with the file, the line and the dotted key.
 
 use crate::plan::PlannerConfig;
-use foosball_algos::{NetConfig, OffPolicyConfig, PpoConfig, SacConfig, Td3Config};
+use foosball_algos::{
+    NetConfig, NormalizeConfig, OffPolicyConfig, PpoConfig, SacConfig, Td3Config,
+};
 use foosball_env::{ConfigError, FoosballConfig, ObservationKind, OpponentKind, Serve};
 use foosball_nets::Backend;
 use serde::{Deserialize, Serialize};
@@ -617,6 +619,9 @@ pub struct RunConfig {
     pub curriculum: Option<CurriculumConfig>,
     /// The planner relabelling states the learner reaches (`None`: off).
     pub dagger: Option<DaggerConfig>,
+    /// Running normalisation of the learner's observations and rewards, SB3's
+    /// `VecNormalize` (`None`: off, as in the paper).
+    pub normalize: Option<NormalizeConfig>,
 }
 
 /// A run configuration as TOML writes it: `algo` names the algorithm and at most that
@@ -641,6 +646,8 @@ struct RunConfigFile {
     curriculum: Option<CurriculumConfig>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     dagger: Option<DaggerConfig>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    normalize: Option<NormalizeConfig>,
 }
 
 impl TryFrom<RunConfigFile> for RunConfig {
@@ -669,6 +676,7 @@ impl TryFrom<RunConfigFile> for RunConfig {
             self_play: f.self_play,
             curriculum: f.curriculum,
             dagger: f.dagger,
+            normalize: f.normalize,
         })
     }
 }
@@ -692,6 +700,7 @@ impl From<RunConfig> for RunConfigFile {
             self_play: c.self_play,
             curriculum: c.curriculum,
             dagger: c.dagger,
+            normalize: c.normalize,
         }
     }
 }
@@ -959,6 +968,21 @@ impl RunConfig {
                 return Err(ConfigError::new(
                     "dagger",
                     "labels states: this run observes images",
+                ));
+            }
+        }
+        if let Some(n) = &self.normalize {
+            n.validate().map_err(|e| e.under("normalize"))?;
+            if n.obs && self.env.observation.kind != ObservationKind::State {
+                return Err(ConfigError::new(
+                    "normalize.obs",
+                    "standardises the state vector: this run observes images (set obs = false)",
+                ));
+            }
+            if p.demonstrations.is_some() || self.dagger.is_some() {
+                return Err(ConfigError::new(
+                    "normalize",
+                    "not with demonstrations or [dagger]: their observations and rewards are raw",
                 ));
             }
         }

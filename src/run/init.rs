@@ -52,6 +52,22 @@ pub fn init_networks(config: &RunConfig, agent: &mut dyn Agent) -> Result<(), St
     if seen != config.env.observation {
         return Err(refuse("it was trained on another observation".into()));
     }
+    let standardised = |c: &RunConfig| c.normalize.as_ref().is_some_and(|n| n.obs);
+    if standardised(&saved) != standardised(config) {
+        return Err(refuse(format!(
+            "its networks read {} observations, this run's {} (normalize.obs)",
+            if standardised(&saved) {
+                "normalised"
+            } else {
+                "raw"
+            },
+            if standardised(config) {
+                "normalised"
+            } else {
+                "raw"
+            },
+        )));
+    }
     fits(&saved.env, &config.env).map_err(refuse)?;
     agent
         .load(&dir.join(checkpoint.name()))

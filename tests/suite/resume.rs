@@ -129,6 +129,13 @@ fn a_ppo_run_on_the_host_path_stopped_and_resumed_ends_as_the_uninterrupted_one(
     stopped_mid_epoch_and_resumed("ppo", "", Some(Backend::Host));
 }
 
+/// The running moments of `[normalize]` (observations, returns, each env's return so far)
+/// are part of the checkpoint.
+#[test]
+fn a_normalised_ppo_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_one() {
+    stopped_mid_epoch_and_resumed("ppo", "[normalize]\n", Some(Backend::Host));
+}
+
 #[test]
 fn a_sac_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_one() {
     stopped_mid_epoch_and_resumed("sac", "", None);

@@ -274,6 +274,50 @@ fn evaluate_reproduces_the_test_of_the_saved_networks() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A run under `[normalize]` saves its observation moments beside its networks; loaded,
+/// they play the test's episodes again, and a run without them is refused by name.
+#[test]
+fn a_normalised_run_saves_its_moments_and_evaluate_reproduces_its_test() {
+    let dir = scratch("normalize");
+    let path = dir.join("ppo.toml");
+    std::fs::write(
+        &path,
+        common::tiny_config_text("ppo", 2, 150) + "[normalize]\n",
+    )
+    .unwrap();
+    let run_dir = dir.join("run");
+    let trained = run(&path, &run_dir, "1");
+    let moments = foosball_rl::nets::Snapshot::read(&run_dir.join("last/normalize.bin")).unwrap();
+    assert_eq!(moments.u64s("obs.mean").unwrap().len(), 38);
+    assert!(moments.f64("obs.count").unwrap() > 100.0);
+    let r = run_dir.to_str().unwrap();
+    let o = evaluate(&["--run", r, "--checkpoint", "last"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let again = std::fs::read_to_string(run_dir.join("evaluate-last/metrics.json")).unwrap();
+    assert_eq!(again, trained);
+
+    std::fs::remove_file(run_dir.join("last/normalize.bin")).unwrap();
+    let o = evaluate(&["--run", r, "--checkpoint", "last"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("normalize.bin"));
+    // Networks that read raw observations do not start a normalised run.
+    let raw = dir.join("raw");
+    let raw_text = common::tiny_config_text("ppo", 1, 150);
+    std::fs::write(dir.join("raw.toml"), &raw_text).unwrap();
+    run(&dir.join("raw.toml"), &raw, "1");
+    let o = train(&[
+        "--config",
+        path.to_str().unwrap(),
+        "--out",
+        dir.join("fine").to_str().unwrap(),
+        "--init-from",
+        &format!("{}@last", raw.display()),
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("normalize.obs"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn the_paper_codes_test_plays_the_best_networks_sampled_and_evaluate_repeats_it() {
     let dir = scratch("code-test");

@@ -2,7 +2,8 @@
 //! definitions, the replay buffer SAC and TD3 share (`replay`; image planes stored once
 //! each in `plane_store`), PPO's rollout buffer and GAE (`rollout_buffer`), the collector
 //! that steps a VecEnv for any of them (`rollout`), demonstrations mixed into SAC's and
-//! TD3's minibatches (`demonstrations`), and the [`Agent`] shape through which one
+//! TD3's minibatches (`demonstrations`), running normalisation of observations and rewards
+//! around any learner (`normalize`, SB3's `VecNormalize`), and the [`Agent`] shape through which one
 //! training loop drives all three.
 //!
 //! Each algorithm file states its update equations at the top (CleanRL style); the
@@ -13,6 +14,7 @@ pub mod config;
 pub mod critics;
 pub mod demonstrations;
 pub mod network_path;
+pub mod normalize;
 pub mod off_policy;
 pub mod plane_store;
 pub mod ppo;
@@ -33,6 +35,7 @@ mod test_support;
 pub use agent::{ActMode, Agent, AgentError, Experience, Metrics};
 pub use config::{ConfigError, NetConfig, OffPolicyConfig};
 pub use demonstrations::Demonstration;
+pub use normalize::{NormalizeConfig, Normalized};
 pub use ppo::{Ppo, PpoConfig};
 pub use replay::{ReplayBatch, ReplayBuffer};
 pub use rollout::{

@@ -1,0 +1,586 @@
+//! Running normalisation of observations and rewards around any [`Agent`], as
+//! Stable-Baselines3's `VecNormalize` computes it (`[normalize]` in a run configuration).
+//!
+//! - Observations: `clip((o - mean) / sqrt(var + epsilon), -clip_obs, clip_obs)` per value,
+//!   `mean` and `var` the running moments of every observation acted on in training
+//!   (`act(.., Explore)`; the first of each episode included, an episode's last one not:
+//!   `VecNormalize` counts the reset observation that replaces it). Evaluation, test and
+//!   play read the moments as they stand, frozen.
+//! - Rewards: `clip(r / sqrt(var_R + epsilon), -clip_reward, clip_reward)` with `var_R`
+//!   the running variance of the discounted return `R <- gamma * R + r` of each env (reset
+//!   to 0 where its episode ends). The mean is not taken off: the sign of a reward stays.
+//! - Moments merge batches exactly (Chan et al.'s parallel update, `f64`), starting from
+//!   mean 0, variance 1 and count `1e-4`, as SB3's `RunningMeanStd`.
+//!
+//! The inner agent learns and acts on normalised values only: its value function is in
+//! normalised reward units, its replay (SAC, TD3) holds observations normalised with the
+//! moments of their time (SB3 keeps the raw ones and normalises at sampling; the
+//! moments settle within a few thousand steps). The observation moments are saved beside
+//! the networks (`normalize.bin`, exact `f64`s), so every player of the run (evaluate, league, act)
+//! reads the table as the learner did; all moments and the running returns go into the
+//! checkpoint, so a resumed run continues exactly.
+
+use crate::agent::{ActMode, Agent, AgentError, Experience, Metrics};
+use crate::config::{ConfigError, ensure};
+use crate::demonstrations::Demonstration;
+use foosball_nets::{Snapshot, SnapshotError};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// The file beside a run's networks that holds the observation moments.
+pub const FILE: &str = "normalize.bin";
+
+/// `[normalize]`: what is normalised and how (defaults `VecNormalize`'s).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NormalizeConfig {
+    /// Normalise observations (the state vector only).
+    pub obs: bool,
+    /// Scale rewards by the running standard deviation of the discounted return.
+    pub reward: bool,
+    /// Bound of a normalised observation value (standard deviations).
+    pub clip_obs: f32,
+    /// Bound of a scaled reward.
+    pub clip_reward: f32,
+    /// Discount of the return whose variance scales rewards (the learner's gamma, as a
+    /// rule).
+    pub gamma: f64,
+    /// Added to every variance before its square root.
+    pub epsilon: f64,
+}
+
+impl Default for NormalizeConfig {
+    fn default() -> Self {
+        Self {
+            obs: true,
+            reward: true,
+            clip_obs: 10.0,
+            clip_reward: 10.0,
+            gamma: 0.99,
+            epsilon: 1e-8,
+        }
+    }
+}
+
+impl NormalizeConfig {
+    /// Rejects invalid settings, naming the key.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        ensure(
+            self.obs || self.reward,
+            "obs",
+            "obs and reward both off: drop [normalize]",
+        )?;
+        ensure(self.clip_obs > 0.0, "clip_obs", "must be positive")?;
+        ensure(self.clip_reward > 0.0, "clip_reward", "must be positive")?;
+        ensure(
+            (0.0..=1.0).contains(&self.gamma),
+            "gamma",
+            "must be in [0, 1]",
+        )?;
+        ensure(
+            self.epsilon > 0.0 && self.epsilon.is_finite(),
+            "epsilon",
+            "must be positive",
+        )
+    }
+}
+
+/// Running mean and variance of vectors of a fixed width (SB3's `RunningMeanStd`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunningMoments {
+    /// Mean per value.
+    pub mean: Vec<f64>,
+    /// Population variance per value.
+    pub var: Vec<f64>,
+    /// Vectors seen, plus the initial `1e-4`.
+    pub count: f64,
+}
+
+impl RunningMoments {
+    /// Mean 0, variance 1, count `1e-4`, for vectors of `width` values.
+    pub fn new(width: usize) -> Self {
+        Self {
+            mean: vec![0.0; width],
+            var: vec![1.0; width],
+            count: 1e-4,
+        }
+    }
+
+    /// Merges the rows of `batch` (`[n, width]`) that are finite throughout.
+    pub fn update(&mut self, batch: &[f32]) {
+        let w = self.mean.len();
+        let rows: Vec<&[f32]> = batch
+            .chunks(w)
+            .filter(|r| r.iter().all(|x| x.is_finite()))
+            .collect();
+        if rows.is_empty() {
+            return;
+        }
+        let n = rows.len() as f64;
+        let total = self.count + n;
+        for j in 0..w {
+            let m = rows.iter().map(|r| f64::from(r[j])).sum::<f64>() / n;
+            let v = rows
+                .iter()
+                .map(|r| (f64::from(r[j]) - m).powi(2))
+                .sum::<f64>()
+                / n;
+            let delta = m - self.mean[j];
+            let m2 = self.var[j] * self.count + v * n + delta * delta * self.count * n / total;
+            self.mean[j] += delta * n / total;
+            self.var[j] = m2 / total;
+        }
+        self.count = total;
+    }
+
+    fn put(&self, snap: &mut Snapshot<'_>, key: &str) {
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<u64>>();
+        snap.put_u64s(format!("{key}.mean"), bits(&self.mean));
+        snap.put_u64s(format!("{key}.var"), bits(&self.var));
+        snap.put_f64(format!("{key}.count"), self.count);
+    }
+
+    fn take(&mut self, snap: &Snapshot<'_>, key: &str) -> Result<(), SnapshotError> {
+        let floats = |name: String, len: usize| -> Result<Vec<f64>, SnapshotError> {
+            let bits = snap.u64s(&name)?;
+            if bits.len() != len {
+                return Err(SnapshotError::Entry {
+                    name,
+                    message: format!("holds {} values, expected {len}", bits.len()),
+                });
+            }
+            Ok(bits.iter().map(|&b| f64::from_bits(b)).collect())
+        };
+        self.mean = floats(format!("{key}.mean"), self.mean.len())?;
+        self.var = floats(format!("{key}.var"), self.var.len())?;
+        self.count = snap.f64(&format!("{key}.count"))?;
+        Ok(())
+    }
+}
+
+/// An agent that sees normalised observations and rewards (module docs).
+pub struct Normalized {
+    inner: Box<dyn Agent + Send>,
+    config: NormalizeConfig,
+    obs: RunningMoments,
+    returns: RunningMoments,
+    /// Discounted return of each training env so far.
+    running: Vec<f64>,
+    /// The normalised observations of the last `act(.., Explore)`.
+    acted: Vec<f32>,
+}
+
+impl Normalized {
+    /// Wraps `inner`, moments fresh.
+    pub fn new(inner: Box<dyn Agent + Send>, config: NormalizeConfig) -> Self {
+        let width = inner.obs_dim();
+        Self {
+            inner,
+            config,
+            obs: RunningMoments::new(width),
+            returns: RunningMoments::new(1),
+            running: Vec::new(),
+            acted: Vec::new(),
+        }
+    }
+
+    /// The observation moments as they stand.
+    pub fn obs_moments(&self) -> &RunningMoments {
+        &self.obs
+    }
+
+    /// `obs` (`[n, obs_dim]`) as the inner agent sees it.
+    pub fn observation(&self, obs: &[f32]) -> Vec<f32> {
+        if !self.config.obs {
+            return obs.to_vec();
+        }
+        let (w, c) = (self.obs.mean.len(), self.config.clip_obs);
+        obs.iter()
+            .enumerate()
+            .map(|(k, &x)| {
+                let j = k % w;
+                let z = (f64::from(x) - self.obs.mean[j])
+                    / (self.obs.var[j] + self.config.epsilon).sqrt();
+                (z as f32).clamp(-c, c)
+            })
+            .collect()
+    }
+
+    /// Scales `rewards` after merging the returns they extend; resets the returns of the
+    /// envs whose episodes ended (`done`).
+    fn rewards(&mut self, rewards: &[f32], done: &[bool]) -> Vec<f32> {
+        if !self.config.reward {
+            return rewards.to_vec();
+        }
+        if self.running.len() != rewards.len() {
+            self.running = vec![0.0; rewards.len()];
+        }
+        for (ret, &r) in self.running.iter_mut().zip(rewards) {
+            *ret = self.config.gamma * *ret + f64::from(r);
+        }
+        let finite: Vec<f32> = self.running.iter().map(|&x| x as f32).collect();
+        self.returns.update(&finite);
+        let scale = (self.returns.var[0] + self.config.epsilon).sqrt();
+        let c = self.config.clip_reward;
+        let scaled = rewards
+            .iter()
+            .map(|&r| ((f64::from(r) / scale) as f32).clamp(-c, c))
+            .collect();
+        for (ret, &d) in self.running.iter_mut().zip(done) {
+            if d {
+                *ret = 0.0;
+            }
+        }
+        scaled
+    }
+}
+
+impl Agent for Normalized {
+    fn obs_dim(&self) -> usize {
+        self.inner.obs_dim()
+    }
+
+    fn action_dim(&self) -> usize {
+        self.inner.action_dim()
+    }
+
+    fn act(&mut self, obs: &[f32], mode: ActMode) -> Vec<f32> {
+        if mode == ActMode::Explore && self.config.obs {
+            self.obs.update(obs);
+        }
+        let seen = self.observation(obs);
+        let actions = self.inner.act(&seen, mode);
+        if mode == ActMode::Explore {
+            self.acted = seen;
+        }
+        actions
+    }
+
+    fn seed_sampling(&mut self, seed: u64) {
+        self.inner.seed_sampling(seed);
+    }
+
+    fn observe(&mut self, step: &Experience<'_>) {
+        let o = self.obs_dim();
+        let next_obs = self.observation(step.next_obs);
+        let finals: Vec<Option<Vec<f32>>> = step
+            .final_obs
+            .iter()
+            .map(|f| f.map(|f| self.observation(f)))
+            .collect();
+        let done: Vec<bool> = (0..step.len())
+            .map(|i| step.terminated[i] || step.truncated[i])
+            .collect();
+        let rewards = self.rewards(step.rewards, &done);
+        let acted = if self.acted.len() == step.obs.len() {
+            std::mem::take(&mut self.acted)
+        } else {
+            self.observation(step.obs)
+        };
+        debug_assert_eq!(acted.len() / o.max(1), step.len());
+        self.inner.observe(&Experience {
+            obs: &acted,
+            actions: step.actions,
+            rewards: &rewards,
+            next_obs: &next_obs,
+            final_obs: finals.iter().map(Option::as_deref).collect(),
+            terminated: step.terminated,
+            truncated: step.truncated,
+            absorbing: step.absorbing.clone(),
+        });
+    }
+
+    fn update(&mut self, progress_remaining: f64) -> Option<Metrics> {
+        self.inner.update(progress_remaining)
+    }
+
+    fn env_steps(&self) -> u64 {
+        self.inner.env_steps()
+    }
+
+    fn gradient_steps(&self) -> u64 {
+        self.inner.gradient_steps()
+    }
+
+    /// The networks, and the observation moments in [`FILE`].
+    fn save(&self, dir: &Path) -> Result<(), AgentError> {
+        self.inner.save(dir)?;
+        let mut snap = Snapshot::new();
+        self.obs.put(&mut snap, "obs");
+        snap.write(&dir.join(FILE)).map_err(|e| AgentError::File {
+            path: dir.join(FILE),
+            message: e.to_string(),
+        })
+    }
+
+    /// The networks, and the observation moments from [`FILE`] (`obs_dim` values each).
+    fn load(&mut self, dir: &Path) -> Result<(), AgentError> {
+        self.inner.load(dir)?;
+        let path = dir.join(FILE);
+        let file = |message: String| AgentError::File {
+            path: path.clone(),
+            message,
+        };
+        if !path.exists() {
+            return Err(file(
+                "missing: a run trained with [normalize] saves its observation moments here".into(),
+            ));
+        }
+        let snap = Snapshot::read(&path).map_err(|e| file(e.to_string()))?;
+        let mut moments = RunningMoments::new(self.obs_dim());
+        moments
+            .take(&snap, "obs")
+            .map_err(|e| file(e.to_string()))?;
+        if !moments
+            .var
+            .iter()
+            .chain(&moments.mean)
+            .all(|x| x.is_finite())
+        {
+            return Err(file("non-finite moments".into()));
+        }
+        self.obs = moments;
+        Ok(())
+    }
+
+    fn zero_obs_inputs(&mut self, inputs: &[usize]) -> Result<(), String> {
+        self.inner.zero_obs_inputs(inputs)
+    }
+
+    fn save_state<'a>(&'a self, snap: &mut Snapshot<'a>) {
+        self.inner.save_state(snap);
+        self.obs.put(snap, "normalize.obs");
+        self.returns.put(snap, "normalize.returns");
+        let bits: Vec<u64> = self.running.iter().map(|x| x.to_bits()).collect();
+        snap.put_u64s("normalize.running", bits);
+    }
+
+    fn load_state(&mut self, snap: &Snapshot<'_>) -> Result<(), SnapshotError> {
+        self.inner.load_state(snap)?;
+        self.obs.take(snap, "normalize.obs")?;
+        self.returns.take(snap, "normalize.returns")?;
+        let bits = snap.u64s("normalize.running")?;
+        self.running = bits.iter().map(|&b| f64::from_bits(b)).collect();
+        Ok(())
+    }
+
+    /// Refused: demonstrations carry raw observations and rewards, which the inner
+    /// agent's buffers would mix with normalised ones.
+    fn set_demonstrations(&mut self, _episodes: &[Demonstration<'_>]) -> Result<usize, String> {
+        Err("[normalize] and demonstrations do not mix: the demonstrations' observations and rewards are raw".into())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::{Arc, Mutex};
+
+    /// What the inner agent was given: per `observe`, its observations and rewards.
+    type Log = Arc<Mutex<Vec<(Vec<f32>, Vec<f32>)>>>;
+
+    /// Records what it observes; acts with each observation's first value.
+    struct Recorder(Log);
+
+    impl Agent for Recorder {
+        fn obs_dim(&self) -> usize {
+            2
+        }
+        fn action_dim(&self) -> usize {
+            1
+        }
+        fn act(&mut self, obs: &[f32], _mode: ActMode) -> Vec<f32> {
+            obs.chunks(2).map(|o| o[0]).collect()
+        }
+        fn seed_sampling(&mut self, _seed: u64) {}
+        fn observe(&mut self, step: &Experience<'_>) {
+            let mut log = self.0.lock().unwrap();
+            log.push((step.obs.to_vec(), step.rewards.to_vec()));
+        }
+        fn update(&mut self, _p: f64) -> Option<Metrics> {
+            None
+        }
+        fn env_steps(&self) -> u64 {
+            0
+        }
+        fn gradient_steps(&self) -> u64 {
+            0
+        }
+        fn save(&self, _dir: &Path) -> Result<(), AgentError> {
+            Ok(())
+        }
+        fn load(&mut self, _dir: &Path) -> Result<(), AgentError> {
+            Ok(())
+        }
+        fn zero_obs_inputs(&mut self, _inputs: &[usize]) -> Result<(), String> {
+            Ok(())
+        }
+        fn save_state<'a>(&'a self, _snap: &mut Snapshot<'a>) {}
+        fn load_state(&mut self, _snap: &Snapshot<'_>) -> Result<(), SnapshotError> {
+            Ok(())
+        }
+    }
+
+    fn wrapped(config: NormalizeConfig) -> (Normalized, Log) {
+        let log = Log::default();
+        (
+            Normalized::new(Box::new(Recorder(log.clone())), config),
+            log,
+        )
+    }
+
+    /// Two envs, observations `[2, 2]`; env 1's episode ends on every step.
+    fn step(n: &mut Normalized, obs: &[f32], rewards: [f32; 2], next_obs: &[f32]) {
+        n.act(obs, ActMode::Explore);
+        n.observe(&Experience {
+            obs,
+            actions: &[0.0, 0.0],
+            rewards: &rewards,
+            next_obs,
+            final_obs: vec![None, Some(&[9.0, 9.0])],
+            terminated: &[false, true],
+            truncated: &[false, false],
+            absorbing: vec![false, false],
+        });
+    }
+
+    #[test]
+    fn merged_moments_are_those_of_all_rows_at_once() {
+        let rows: Vec<f32> = (0..40).map(|i| ((i * 7 % 13) as f32) - 3.5).collect();
+        let mut parts = RunningMoments::new(2);
+        for chunk in rows.chunks(6) {
+            parts.update(chunk);
+        }
+        let mut once = RunningMoments::new(2);
+        once.update(&rows);
+        for j in 0..2 {
+            let col: Vec<f64> = rows
+                .iter()
+                .skip(j)
+                .step_by(2)
+                .map(|&x| f64::from(x))
+                .collect();
+            let m = col.iter().sum::<f64>() / 20.0;
+            let v = col.iter().map(|x| (x - m).powi(2)).sum::<f64>() / 20.0;
+            // The prior (mean 0, var 1, count 1e-4) moves the moments by ~1e-5.
+            assert!((parts.mean[j] - m).abs() < 1e-4, "{} vs {m}", parts.mean[j]);
+            assert!(
+                (parts.var[j] - v).abs() < 1e-4 * v,
+                "{} vs {v}",
+                parts.var[j]
+            );
+            assert!((parts.mean[j] - once.mean[j]).abs() < 1e-12);
+            assert!((parts.var[j] - once.var[j]).abs() < 1e-9);
+        }
+        let before = parts.clone();
+        parts.update(&[f32::NAN, 1.0]);
+        assert_eq!(parts, before, "a non-finite row is not merged");
+    }
+
+    #[test]
+    fn the_inner_agent_sees_standardised_clipped_observations() {
+        let (mut n, log) = wrapped(NormalizeConfig {
+            clip_obs: 1.5,
+            reward: false,
+            ..NormalizeConfig::default()
+        });
+        let obs = [0.0, 100.0, 2.0, 300.0];
+        step(&mut n, &obs, [1.0, 1.0], &obs);
+        // Moments of the two rows (prior count 1e-4): mean (1, 200), var (1, 10_000).
+        let m = n.obs_moments().clone();
+        assert!((m.mean[0] - 1.0).abs() < 1e-3 && (m.mean[1] - 200.0).abs() < 0.1);
+        assert!((m.var[0] - 1.0).abs() < 1e-3 && (m.var[1] - 10_000.0).abs() < 5.0);
+        let seen = log.lock().unwrap()[0].0.clone();
+        for (s, want) in seen.iter().zip([-1.0, -1.0, 1.0, 1.0]) {
+            assert!((s - want).abs() < 1e-3, "{seen:?}");
+        }
+        assert_eq!(
+            log.lock().unwrap()[0].1,
+            vec![1.0, 1.0],
+            "rewards untouched"
+        );
+        assert_eq!(n.observation(&[100.0, 0.0]), vec![1.5, -1.5], "clipped");
+        // Acting deterministically reads the moments and leaves them alone.
+        assert_eq!(n.act(&[3.0, 0.0], ActMode::Deterministic), vec![1.5]);
+        assert_eq!(n.obs_moments(), &m);
+    }
+
+    #[test]
+    fn rewards_are_scaled_by_the_std_of_the_discounted_return_reset_at_episode_ends() {
+        let config = NormalizeConfig {
+            obs: false,
+            gamma: 0.5,
+            ..NormalizeConfig::default()
+        };
+        let (mut n, log) = wrapped(config.clone());
+        let o = [0.0; 4];
+        step(&mut n, &o, [2.0, 4.0], &o);
+        step(&mut n, &o, [2.0, 4.0], &o);
+        // Returns: step 1 (2, 4); step 2 env 0 0.5 * 2 + 2 = 3, env 1 restarted at 4.
+        let mut by_hand = RunningMoments::new(1);
+        let mut scales = Vec::new();
+        for returns in [[2.0, 4.0], [3.0, 4.0]] {
+            by_hand.update(&returns);
+            scales.push((by_hand.var[0] + config.epsilon).sqrt());
+        }
+        assert_eq!(n.returns, by_hand);
+        let log = log.lock().unwrap();
+        for (k, scale) in scales.iter().enumerate() {
+            let want = [(2.0 / scale) as f32, (4.0 / scale) as f32];
+            assert_eq!(log[k].1, want, "step {k}");
+        }
+        assert_eq!(log[0].0, o.to_vec(), "observations untouched");
+    }
+
+    #[test]
+    fn a_resumed_wrapper_continues_exactly() {
+        let run = |n: &mut Normalized, k: f32| {
+            step(
+                n,
+                &[k, 2.0 * k, -k, 1.0],
+                [k, 1.0 - k],
+                &[k + 1.0, 0.0, 1.0, k],
+            );
+        };
+        let (mut a, log_a) = wrapped(NormalizeConfig::default());
+        for k in 0..5 {
+            run(&mut a, k as f32);
+        }
+        let mut snap = Snapshot::new();
+        a.save_state(&mut snap);
+        let (mut b, log_b) = wrapped(NormalizeConfig::default());
+        b.load_state(&snap).unwrap();
+        for k in 5..9 {
+            run(&mut a, k as f32);
+            run(&mut b, k as f32);
+        }
+        assert_eq!(log_a.lock().unwrap()[5..], log_b.lock().unwrap()[..]);
+    }
+
+    #[test]
+    fn saved_moments_load_back_and_a_missing_file_is_named() {
+        let dir = std::env::temp_dir().join(format!("normalize-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (mut a, _) = wrapped(NormalizeConfig::default());
+        step(&mut a, &[1.0, 5.0, 3.0, -5.0], [0.0, 0.0], &[0.0; 4]);
+        a.save(&dir).unwrap();
+        let (mut b, _) = wrapped(NormalizeConfig::default());
+        b.load(&dir).unwrap();
+        assert_eq!(b.obs_moments(), a.obs_moments());
+        std::fs::remove_file(dir.join(FILE)).unwrap();
+        let err = b.load(&dir).unwrap_err().to_string();
+        assert!(err.contains(FILE), "{err}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_config_without_anything_to_normalise_is_refused() {
+        let off = NormalizeConfig {
+            obs: false,
+            reward: false,
+            ..NormalizeConfig::default()
+        };
+        assert_eq!(off.validate().unwrap_err().key, "obs");
+        assert!(NormalizeConfig::default().validate().is_ok());
+    }
+}
