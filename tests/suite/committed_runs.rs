@@ -45,3 +45,9 @@ fn a_run_of_the_first_game_replays_byte_for_byte() {
 fn a_run_of_the_codes_game_replays_byte_for_byte() {
     replays("results/figure2/ppo-seed0");
 }
+
+/// Its networks read normalised observations: the moments saved beside them replay too.
+#[test]
+fn a_run_on_normalised_observations_replays_byte_for_byte() {
+    replays("results/ppo-normalize/ppo-seed4");
+}
