@@ -218,8 +218,8 @@ impl Normalized {
         for (ret, &r) in self.running.iter_mut().zip(rewards) {
             *ret = self.config.gamma * *ret + f64::from(r);
         }
-        let finite: Vec<f32> = self.running.iter().map(|&x| x as f32).collect();
-        self.returns.update(&finite);
+        let returns: Vec<f32> = self.running.iter().map(|&x| x as f32).collect();
+        self.returns.update(&returns);
         let scale = (self.returns.var[0] + self.config.epsilon).sqrt();
         let c = self.config.clip_reward;
         let scaled = rewards
