@@ -52,20 +52,15 @@ pub fn init_networks(config: &RunConfig, agent: &mut dyn Agent) -> Result<(), St
     if seen != config.env.observation {
         return Err(refuse("it was trained on another observation".into()));
     }
-    let standardised = |c: &RunConfig| c.normalize.as_ref().is_some_and(|n| n.obs);
-    if standardised(&saved) != standardised(config) {
+    let reads = |c: &RunConfig| match c.normalize.as_ref().is_some_and(|n| n.obs) {
+        true => "normalised",
+        false => "raw",
+    };
+    if reads(&saved) != reads(config) {
         return Err(refuse(format!(
             "its networks read {} observations, this run's {} (normalize.obs)",
-            if standardised(&saved) {
-                "normalised"
-            } else {
-                "raw"
-            },
-            if standardised(config) {
-                "normalised"
-            } else {
-                "raw"
-            },
+            reads(&saved),
+            reads(config),
         )));
     }
     fits(&saved.env, &config.env).map_err(refuse)?;

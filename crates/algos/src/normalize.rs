@@ -166,8 +166,6 @@ pub struct Normalized {
     returns: RunningMoments,
     /// Discounted return of each training env so far.
     running: Vec<f64>,
-    /// The normalised observations of the last `act(.., Explore)`.
-    acted: Vec<f32>,
 }
 
 impl Normalized {
@@ -180,7 +178,6 @@ impl Normalized {
             obs: RunningMoments::new(width),
             returns: RunningMoments::new(1),
             running: Vec::new(),
-            acted: Vec::new(),
         }
     }
 
@@ -248,20 +245,17 @@ impl Agent for Normalized {
         if mode == ActMode::Explore && self.config.obs {
             self.obs.update(obs);
         }
-        let seen = self.observation(obs);
-        let actions = self.inner.act(&seen, mode);
-        if mode == ActMode::Explore {
-            self.acted = seen;
-        }
-        actions
+        self.inner.act(&self.observation(obs), mode)
     }
 
     fn seed_sampling(&mut self, seed: u64) {
         self.inner.seed_sampling(seed);
     }
 
+    /// The observations acted on are normalised again with the moments `act` used (only
+    /// `act(.., Explore)` moves them), so the learner stores what it acted on.
     fn observe(&mut self, step: &Experience<'_>) {
-        let o = self.obs_dim();
+        let acted = self.observation(step.obs);
         let next_obs = self.observation(step.next_obs);
         let finals: Vec<Option<Vec<f32>>> = step
             .final_obs
@@ -272,12 +266,6 @@ impl Agent for Normalized {
             .map(|i| step.terminated[i] || step.truncated[i])
             .collect();
         let rewards = self.rewards(step.rewards, &done);
-        let acted = if self.acted.len() == step.obs.len() {
-            std::mem::take(&mut self.acted)
-        } else {
-            self.observation(step.obs)
-        };
-        debug_assert_eq!(acted.len() / o.max(1), step.len());
         self.inner.observe(&Experience {
             obs: &acted,
             actions: step.actions,
