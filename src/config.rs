@@ -979,10 +979,11 @@ impl RunConfig {
                     "standardises the state vector: this run observes images (set obs = false)",
                 ));
             }
-            if p.demonstrations.is_some() || self.dagger.is_some() {
+            if self.dagger.is_some() {
                 return Err(ConfigError::new(
                     "normalize",
-                    "not with demonstrations or [dagger]: their observations and rewards are raw",
+                    "not with [dagger]: its labels join the demonstrations as training goes, \
+                     raw, after the moments have moved",
                 ));
             }
         }

@@ -1,6 +1,7 @@
 //! Demonstrations (`protocol.demonstrations` + `off_policy.demo_share`): a run learns
 //! from a `trajectories.bin` that `evaluate` recorded, the same numbers twice and other
-//! numbers than without them, several files as one buffer; files recorded on the run's
+//! numbers than without them, several files as one buffer, normalised under
+//! `[normalize]`; files recorded on the run's
 //! own evaluation or test starts or on another table, an image observation, a missing
 //! file, an empty list and half-set keys are refused by key.
 
@@ -57,6 +58,42 @@ fn a_run_learns_from_recorded_episodes_reproducibly() {
     assert_ne!(first, alone, "the demonstrations changed nothing");
     let rl_only = run(&dir, "rl-only", &with_demos(&file, "")).unwrap();
     assert_ne!(first, rl_only, "behaviour cloning changed nothing");
+}
+
+/// Under `[normalize]` the demonstrations seed the moments and are learned from
+/// normalised: other numbers than the normalised run without them, the same twice; a run stopped and resumed ends as the uninterrupted one (the rows handed again at the
+/// resume are those of the start); beside `[dagger]` refused by key.
+#[test]
+fn a_normalised_run_learns_from_demonstrations_and_resumes_exactly() {
+    let dir = scratch("demonstrations-normalised");
+    let file = record(&dir, 1000);
+    let normalised = with_demos(&file, "") + "[normalize]\n";
+    let first = run(&dir, "a", &normalised).unwrap();
+    assert_eq!(
+        first,
+        run(&dir, "b", &normalised).unwrap(),
+        "not reproducible"
+    );
+    let alone = tiny_config_text("sac", 1, 200) + "[normalize]\n";
+    assert_ne!(
+        first,
+        run(&dir, "alone", &alone).unwrap(),
+        "the demonstrations changed nothing"
+    );
+    let (one, three) = (
+        "epochs = 1\nsteps_per_epoch = 200",
+        "epochs = 3\nsteps_per_epoch = 150",
+    );
+    assert!(normalised.contains(one));
+    crate::resume::stopped_and_resumed("normalised-demos", &normalised.replace(one, three), None);
+    let teacher = normalised + "[dagger]\n";
+    let err = RunConfig::from_toml(&teacher, Path::new("t.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("normalize") && err.contains("[dagger]"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -9,6 +9,9 @@
 //! - Rewards: `clip(r / sqrt(var_R + epsilon), -clip_reward, clip_reward)` with `var_R`
 //!   the running variance of the discounted return `R <- gamma * R + r` of each env (reset
 //!   to 0 where its episode ends). The mean is not taken off: the sign of a reward stays.
+//! - Demonstrations (`protocol.demonstrations`) seed both moments before the first step:
+//!   their observations and the discounted returns of their steps are merged, and they
+//!   reach the inner agent normalised and scaled with those moments.
 //! - Moments merge batches exactly (Chan et al.'s parallel update, `f64`), starting from
 //!   mean 0, variance 1 and count `1e-4`, as SB3's `RunningMeanStd`.
 //!
@@ -203,6 +206,19 @@ impl Normalized {
             .collect()
     }
 
+    /// `rewards` as the inner agent is paid them, with the return moments as they stand.
+    fn scaled(&self, rewards: &[f32]) -> Vec<f32> {
+        if !self.config.reward {
+            return rewards.to_vec();
+        }
+        let scale = (self.returns.var[0] + self.config.epsilon).sqrt();
+        let c = self.config.clip_reward;
+        rewards
+            .iter()
+            .map(|&r| ((f64::from(r) / scale) as f32).clamp(-c, c))
+            .collect()
+    }
+
     /// Scales `rewards` after merging the returns they extend; resets the returns of the
     /// envs whose episodes ended (`done`).
     fn rewards(&mut self, rewards: &[f32], done: &[bool]) -> Vec<f32> {
@@ -217,12 +233,7 @@ impl Normalized {
         }
         let returns: Vec<f32> = self.running.iter().map(|&x| x as f32).collect();
         self.returns.update(&returns);
-        let scale = (self.returns.var[0] + self.config.epsilon).sqrt();
-        let c = self.config.clip_reward;
-        let scaled = rewards
-            .iter()
-            .map(|&r| ((f64::from(r) / scale) as f32).clamp(-c, c))
-            .collect();
+        let scaled = self.scaled(rewards);
         for (ret, &d) in self.running.iter_mut().zip(done) {
             if d {
                 *ret = 0.0;
@@ -352,10 +363,47 @@ impl Agent for Normalized {
         Ok(())
     }
 
-    /// Refused: demonstrations carry raw observations and rewards, which the inner
-    /// agent's buffers would mix with normalised ones.
-    fn set_demonstrations(&mut self, _episodes: &[Demonstration<'_>]) -> Result<usize, String> {
-        Err("[normalize] and demonstrations do not mix: the demonstrations' observations and rewards are raw".into())
+    /// The demonstrations as the inner agent learns from them. They seed the moments
+    /// before any step is played: their observations merge into the observation moments,
+    /// the discounted return of each of their steps into the return moments; then their
+    /// observations are normalised and their rewards scaled with those moments. Handed
+    /// once, at the start of a run (a resume hands them to a fresh agent, then replaces
+    /// the moments by the checkpoint's, so the rows are the uninterrupted run's).
+    fn set_demonstrations(&mut self, episodes: &[Demonstration<'_>]) -> Result<usize, String> {
+        let w = self.obs_dim();
+        if episodes.iter().any(|e| e.obs.len() != e.rewards.len() * w) {
+            // Not a table's episodes: the inner agent names the one at fault.
+            return self.inner.set_demonstrations(episodes);
+        }
+        if self.config.obs {
+            for e in episodes {
+                self.obs.update(e.obs);
+            }
+        }
+        if self.config.reward {
+            for e in episodes {
+                let mut ret = 0.0;
+                let returns: Vec<f32> = e
+                    .rewards
+                    .iter()
+                    .map(|&r| {
+                        ret = self.config.gamma * ret + f64::from(r);
+                        ret as f32
+                    })
+                    .collect();
+                self.returns.update(&returns);
+            }
+        }
+        let seen: Vec<(Vec<f32>, Vec<f32>)> = episodes
+            .iter()
+            .map(|e| (self.observation(e.obs), self.scaled(e.rewards)))
+            .collect();
+        let normalised: Vec<Demonstration<'_>> = episodes
+            .iter()
+            .zip(&seen)
+            .map(|(e, (obs, rewards))| Demonstration { obs, rewards, ..*e })
+            .collect();
+        self.inner.set_demonstrations(&normalised)
     }
 }
 
@@ -406,6 +454,13 @@ mod tests {
         fn save_state<'a>(&'a self, _snap: &mut Snapshot<'a>) {}
         fn load_state(&mut self, _snap: &Snapshot<'_>) -> Result<(), SnapshotError> {
             Ok(())
+        }
+        fn set_demonstrations(&mut self, episodes: &[Demonstration<'_>]) -> Result<usize, String> {
+            let mut log = self.0.lock().unwrap();
+            for e in episodes {
+                log.push((e.obs.to_vec(), e.rewards.to_vec()));
+            }
+            Ok(episodes.iter().map(|e| e.rewards.len()).sum())
         }
     }
 
@@ -559,6 +614,39 @@ mod tests {
         let err = b.load(&dir).unwrap_err().to_string();
         assert!(err.contains(FILE), "{err}");
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn demonstrations_seed_the_moments_and_are_handed_on_normalised() {
+        let (mut n, log) = wrapped(NormalizeConfig::default());
+        let (obs_a, obs_b) = ([1.0, 10.0, 3.0, 30.0], [5.0, 50.0]);
+        let demo = |obs, rewards| Demonstration {
+            obs,
+            actions: &[0.0, 0.0],
+            rewards,
+            terminated: true,
+            absorbing: false,
+        };
+        let kept = n.set_demonstrations(&[demo(&obs_a, &[1.0, 2.0]), demo(&obs_b, &[4.0])]);
+        assert_eq!(kept, Ok(3));
+        // Rows (1, 10), (3, 30), (5, 50): means 3 and 30, variances 8/3 and 800/3.
+        let m = n.obs_moments();
+        assert!((m.mean[0] - 3.0).abs() < 1e-4 && (m.mean[1] - 30.0).abs() < 1e-3);
+        assert!((m.var[0] - 8.0 / 3.0).abs() < 1e-3 && (m.var[1] - 800.0 / 3.0).abs() < 1e-1);
+        // Discounted returns per step: 1, 0.99 + 2 = 2.99 (first episode), 4 (second).
+        let returns = [1.0, 2.99, 4.0];
+        let mean = returns.iter().sum::<f64>() / 3.0;
+        let var = returns.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / 3.0;
+        let log = log.lock().unwrap();
+        let (sd0, sd1) = ((8.0f64 / 3.0).sqrt(), (800.0f64 / 3.0).sqrt());
+        let want_obs = [(1.0 - 3.0) / sd0, (10.0 - 30.0) / sd1, 0.0, 0.0];
+        for (got, want) in log[0].0.iter().zip(want_obs) {
+            assert!((f64::from(*got) - want).abs() < 1e-3, "{got} vs {want}");
+        }
+        for (got, r) in log[0].1.iter().chain(&log[1].1).zip([1.0, 2.0, 4.0]) {
+            let want = r / var.sqrt();
+            assert!((f64::from(*got) - want).abs() < 1e-3, "{got} vs {want}");
+        }
     }
 
     #[test]
