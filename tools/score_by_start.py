@@ -5,6 +5,7 @@ the test, not committed); numpy only.
 
     python tools/score_by_start.py results/recipe-v4/sac-recipe-seed{0,1,2,3,4}
     python tools/score_by_start.py RUN... --test evaluate-last-on-reference   # another game's test
+    python tools/score_by_start.py RUN --first-actions   # and how its first actions follow x
 
 Prints, for the first run, the score rate in 12 bins of the start's x; then for every
 other run the chance that it scores on a start where the first one scores and where the
@@ -28,11 +29,28 @@ def scored_starts(run, test="test"):
     return x, scored
 
 
+def first_actions(run, test, steps=3):
+    """How the first `steps` actions of `run`'s episodes follow the ball's start x: each
+    action value's mean, spread and correlation with x over the episodes."""
+    episodes = read(os.path.join(run, test, "trajectories.bin"))
+    x = np.array([obs[0, 0] for _, obs, _, _ in episodes])
+    print(f"| step | action: mean over episodes | spread (std) | correlation with start x |")
+    print("| --- | --- | --- | --- |")
+    for t in range(steps):
+        a = np.array([acts[t] for _, _, acts, _ in episodes if len(acts) > t])
+        xs = np.array([x[i] for i, (_, _, acts, _) in enumerate(episodes) if len(acts) > t])
+        corr = [np.corrcoef(xs, a[:, j])[0, 1] if a[:, j].std() > 1e-6 else 0.0 for j in range(a.shape[1])]
+        fmt = lambda v: " ".join(f"{u:+.3f}" for u in v)
+        print(f"| {t} | {fmt(a.mean(0))} | {fmt(a.std(0))} | {fmt(corr)} |")
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("runs", nargs="+", help="run directories with test/trajectories.bin, same test starts")
     p.add_argument("--test", default="test",
                    help="each run's directory of the episodes (e.g. evaluate-last-on-reference)")
+    p.add_argument("--first-actions", action="store_true",
+                   help="also print how the first run's first actions follow the start x")
     a = p.parse_args()
     x, first = scored_starts(a.runs[0], a.test)
     print(f"{a.runs[0]}: {len(first)} test episodes, score rate {first.mean():.3f}")
@@ -43,6 +61,8 @@ def main():
         m = bins == b
         if m.any():
             print(f"| {edges[b]:.2f} to {edges[b + 1]:.2f} | {m.sum()} | {first[m].mean():.2f} |")
+    if a.first_actions:
+        first_actions(a.runs[0], a.test)
     print("| run | score rate | P(scores where the first scores) | P(scores where it does not) |")
     print("| --- | --- | --- | --- |")
     for run in a.runs[1:]:
