@@ -12,7 +12,9 @@ unchanged) and the `act` binary of this project (`cargo build --release --bin ac
 
 The run's networks answer the gym's observations (the same 38 values in the same joint
 frame) through `act`; the gym is stepped with 20 x action, as its [-20, 20] action space
-is what SB3 scaled the policy's [-1, 1] onto. Starts are the gym's own draw,
+is what SB3 scaled the policy's [-1, 1] onto (a run of `env.action_map = "linear"`, whose
+[-1, 1] spans each joint's control range, is stepped with action x range: the code's
+action a x range / 20, which MuJoCo's clamp to the range leaves as it is). Starts are the gym's own draw,
 `numpy.random.seed(seed)` before the reset of episode `seed` (0, 1, ...). The metrics are
 the test's five and the episode length, each with its 95 % interval (Wilson for the
 score rate, normal for the means); ends are classified as the gym decides them.
@@ -23,11 +25,15 @@ import math
 import os
 import subprocess
 import sys
+import tomllib
 import types
 
 import numpy as np
 
 GOAL = (0.0, 65.0)  # the gym's reward point and goal line, joint frame
+# Each action value's control range in the model's actuators (ctrlrange: cm of slide, rad
+# of turn), goalie, defence, midfield, attack, [slide, turn] each.
+CONTROL_RANGES = np.array([10.0, 2.5, 20.0, 2.5, 7.0, 2.5, 12.0, 2.5])
 
 
 def load_gym(checkout):
@@ -55,7 +61,19 @@ def mean_ci(values, z=1.96):
     return [m, m - z * se, m + z * se]
 
 
-def play(env, act, seed):
+def action_scale(run):
+    """What the gym's step multiplies the run's action by, per value: 20 under the code's
+    own map (`saturating`), the control range under `linear`."""
+    with open(os.path.join(run, "config.toml"), "rb") as f:
+        action_map = tomllib.load(f).get("env", {}).get("action_map", "saturating")
+    if action_map == "saturating":
+        return np.full(8, 20.0)
+    if action_map == "linear":
+        return CONTROL_RANGES
+    raise SystemExit(f"{run}/config.toml: env.action_map {action_map!r} is neither saturating nor linear")
+
+
+def play(env, act, seed, scale):
     """One episode: its summary (the test's per-episode quantities and its end)."""
     np.random.seed(seed)
     obs, _ = env.reset()
@@ -67,7 +85,7 @@ def play(env, act, seed):
         if not line:
             raise RuntimeError("act stopped answering: " + act.stderr.read())
         action = np.array([float(v) for v in line.split()], dtype=np.float64)
-        obs, reward, terminated, _, _ = env.step(20.0 * action)
+        obs, reward, terminated, _, _ = env.step(scale * action)
         steps += 1
         total += reward
         x, y = float(obs[0]), float(obs[1])
@@ -149,7 +167,8 @@ def main():
     env = load_gym(os.environ["FOOSBALL_CU"])
     act = subprocess.Popen([a.act, "--run", a.run, "--checkpoint", a.checkpoint], stdin=subprocess.PIPE,
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, bufsize=1)
-    episodes = [play(env, act, seed) for seed in range(a.episodes)]
+    scale = action_scale(a.run)
+    episodes = [play(env, act, seed, scale) for seed in range(a.episodes)]
     act.stdin.close()
     act.wait()
     theirs = summarise(episodes)
