@@ -21,26 +21,29 @@ from plan_consistency import read
 GOAL_LINE_WORLD = 61.0  # the joint frame's 65 cm, world y (joint origin at y = -4)
 
 
-def scored_starts(run, test="test"):
-    """Start x (world cm) and whether each episode of `run`'s `test` directory scored."""
-    episodes = read(os.path.join(run, test, "trajectories.bin"))
+def read_episodes(run, test="test"):
+    """The episodes of `run`'s `test` directory (its `trajectories.bin`)."""
+    return read(os.path.join(run, test, "trajectories.bin"))
+
+
+def scored_starts(episodes):
+    """Start x (world cm) and whether each episode scored."""
     x = np.array([obs[0, 0] for _, obs, _, _ in episodes])
     scored = np.array([bool((obs[:, 1] > GOAL_LINE_WORLD).any()) for _, obs, _, _ in episodes])
     return x, scored
 
 
-def first_actions(run, test, steps=3):
-    """How the first `steps` actions of `run`'s episodes follow the ball's start x: each
-    action value's mean, spread and correlation with x over the episodes."""
-    episodes = read(os.path.join(run, test, "trajectories.bin"))
-    x = np.array([obs[0, 0] for _, obs, _, _ in episodes])
-    print(f"| step | action: mean over episodes | spread (std) | correlation with start x |")
+def first_actions(episodes, x, steps=3):
+    """How the first `steps` actions of the episodes follow the ball's start x (`x`, one
+    per episode): each action value's mean, spread and correlation with x."""
+    print("| step | action: mean over episodes | spread (std) | correlation with start x |")
     print("| --- | --- | --- | --- |")
+    fmt = lambda v: " ".join(f"{u:+.3f}" for u in v)
     for t in range(steps):
+        long_enough = np.array([len(acts) > t for _, _, acts, _ in episodes])
         a = np.array([acts[t] for _, _, acts, _ in episodes if len(acts) > t])
-        xs = np.array([x[i] for i, (_, _, acts, _) in enumerate(episodes) if len(acts) > t])
+        xs = x[long_enough]
         corr = [np.corrcoef(xs, a[:, j])[0, 1] if a[:, j].std() > 1e-6 else 0.0 for j in range(a.shape[1])]
-        fmt = lambda v: " ".join(f"{u:+.3f}" for u in v)
         print(f"| {t} | {fmt(a.mean(0))} | {fmt(a.std(0))} | {fmt(corr)} |")
 
 
@@ -52,7 +55,8 @@ def main():
     p.add_argument("--first-actions", action="store_true",
                    help="also print how the first run's first actions follow the start x")
     a = p.parse_args()
-    x, first = scored_starts(a.runs[0], a.test)
+    episodes = read_episodes(a.runs[0], a.test)
+    x, first = scored_starts(episodes)
     print(f"{a.runs[0]}: {len(first)} test episodes, score rate {first.mean():.3f}")
     print("| start x (world cm) | episodes | score rate |\n| --- | --- | --- |")
     edges = np.linspace(x.min(), x.max(), 13)
@@ -62,11 +66,11 @@ def main():
         if m.any():
             print(f"| {edges[b]:.2f} to {edges[b + 1]:.2f} | {m.sum()} | {first[m].mean():.2f} |")
     if a.first_actions:
-        first_actions(a.runs[0], a.test)
+        first_actions(episodes, x)
     print("| run | score rate | P(scores where the first scores) | P(scores where it does not) |")
     print("| --- | --- | --- | --- |")
     for run in a.runs[1:]:
-        x2, other = scored_starts(run, a.test)
+        x2, other = scored_starts(read_episodes(run, a.test))
         if not np.array_equal(x, x2):
             raise SystemExit(f"{run}: other test starts than {a.runs[0]}")
         print(f"| {run} | {other.mean():.3f} | {other[first].mean():.3f} | {other[~first].mean():.3f} |")
