@@ -31,9 +31,6 @@ import types
 import numpy as np
 
 GOAL = (0.0, 65.0)  # the gym's reward point and goal line, joint frame
-# Each action value's control range in the model's actuators (ctrlrange: cm of slide, rad
-# of turn), goalie, defence, midfield, attack, [slide, turn] each.
-CONTROL_RANGES = np.array([10.0, 2.5, 20.0, 2.5, 7.0, 2.5, 12.0, 2.5])
 
 
 def load_gym(checkout):
@@ -61,15 +58,17 @@ def mean_ci(values, z=1.96):
     return [m, m - z * se, m + z * se]
 
 
-def action_scale(run):
+def action_scale(run, env):
     """What the gym's step multiplies the run's action by, per value: 20 under the code's
-    own map (`saturating`), the control range under `linear`."""
+    own map (`saturating`), the control range under `linear`: the model's own `ctrlrange`
+    of yellow's 8 actuators (the first 8: goalie, defence, midfield, attack, slide and turn
+    each; cm of slide, rad of turn)."""
     with open(os.path.join(run, "config.toml"), "rb") as f:
         action_map = tomllib.load(f).get("env", {}).get("action_map", "saturating")
     if action_map == "saturating":
         return np.full(8, 20.0)
     if action_map == "linear":
-        return CONTROL_RANGES
+        return env.model.actuator_ctrlrange[:8, 1].copy()
     raise SystemExit(f"{run}/config.toml: env.action_map {action_map!r} is neither saturating nor linear")
 
 
@@ -167,7 +166,7 @@ def main():
     env = load_gym(os.environ["FOOSBALL_CU"])
     act = subprocess.Popen([a.act, "--run", a.run, "--checkpoint", a.checkpoint], stdin=subprocess.PIPE,
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, bufsize=1)
-    scale = action_scale(a.run)
+    scale = action_scale(a.run, env)
     episodes = [play(env, act, seed, scale) for seed in range(a.episodes)]
     act.stdin.close()
     act.wait()
