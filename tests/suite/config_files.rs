@@ -120,6 +120,8 @@ fn an_invalid_value_names_the_file_the_line_and_the_key() {
     assert_eq!(e, "bad.toml:3: protocol.epochs: must be positive");
     let e = error("algo = \"sac\"\n[env]\nframe_skip = 0\n");
     assert!(e.starts_with("bad.toml:3: env.frame_skip:"), "{e}");
+    let e = error("algo = \"td3\"\n[td3]\naction_l2 = -1.0\n");
+    assert_eq!(e, "bad.toml:3: td3.action_l2: must be finite and >= 0");
 }
 
 #[test]

@@ -6,8 +6,9 @@
 //! 2. critics: `y = r + gamma (1 - d) min(Q1', Q2')(s', a')` (`gamma^n` with `n_step`
 //!    returns),
 //!    `L = MSE(Q1(s, a), y) + MSE(Q2(s, a), y)`;
-//! 3. every `policy_delay` steps: actor `L = -mean(Q1(s, pi(s)))`, then polyak updates of
-//!    both target networks (targets move only on these delayed steps).
+//! 3. every `policy_delay` steps: actor `L = -mean(Q1(s, pi(s))) + action_l2 mean(pi(s)^2)`
+//!    (the penalty 0 by default, as SB3; OpenAI Baselines' HER DDPG uses 1), then polyak
+//!    updates of both target networks (targets move only on these delayed steps).
 //!
 //! Exploration adds `N(0, action_noise^2)` to the deterministic action, clipped to `[-1, 1]`.
 //!
@@ -51,6 +52,11 @@ pub struct Td3Config {
     pub target_noise_clip: f32,
     /// Standard deviation of the Gaussian exploration noise (0 disables it).
     pub action_noise: f32,
+    /// Weight of the actor's penalty on its actions' mean square (the mean over the batch
+    /// and the action's elements, in squared action units; 0 disables it): it pulls an
+    /// actor off actions the table answers alike, such as a turn past the paper code's
+    /// clamp at `|a|` > 0.125, where the critic's slope in the action is zero.
+    pub action_l2: f32,
 }
 
 impl Default for Td3Config {
@@ -63,6 +69,7 @@ impl Default for Td3Config {
             target_policy_noise: 0.2,
             target_noise_clip: 0.5,
             action_noise: 0.1,
+            action_l2: 0.0,
         }
     }
 }
@@ -90,6 +97,11 @@ impl Td3Config {
         ensure(
             non_negative(self.action_noise),
             "action_noise",
+            "must be finite and >= 0",
+        )?;
+        ensure(
+            non_negative(self.action_l2),
+            "action_l2",
             "must be finite and >= 0",
         )
     }
@@ -237,19 +249,27 @@ impl StepContext<'_> {
         ];
         let critic_report = nets.critics().critic_step([&dq[0], &dq[1]], lr);
 
-        // 3. Delayed actor and target updates: L = -mean(Q1(s, pi(s))), dL/dQ1 = -1 / n.
+        // 3. Delayed actor and target updates: L = -mean(Q1(s, pi(s))) + l2 mean(pi(s)^2),
+        // dL/dQ1 = -1 / n, and the penalty's dL/da = 2 l2 a / (n action_dim).
         let actor_loss = (self.gradient_steps + 1)
             .is_multiple_of(c.policy_delay)
             .then(|| {
                 let actions = nets.actions(&obs);
                 let q_pi = nets.critics().first_q(&obs, &actions);
                 let d_q_pi = r.affine(&q_pi, 0.0, -per_row);
-                let d_actions = nets.critics().action_gradient(&[&d_q_pi]);
+                let mut d_actions = nets.critics().action_gradient(&[&d_q_pi]);
+                let mut loss = r.affine(&r.mean(&q_pi), -1.0, 0.0);
+                if c.action_l2 > 0.0 {
+                    let slope = 2.0 * c.action_l2 / (n * a) as f32;
+                    d_actions = r.add_matrix(&d_actions, &r.scale_matrix(&actions, slope));
+                    let penalty = r.affine(&r.mean_square(&actions), c.action_l2, 0.0);
+                    loss = r.add(&loss, &penalty);
+                }
                 nets.actor_step(&d_actions, lr);
                 let tau = c.off_policy.tau;
                 nets.critics().update_target(tau);
                 nets.update_actor_target(tau);
-                r.scalar(&r.affine(&r.mean(&q_pi), -1.0, 0.0))
+                r.scalar(&loss)
             });
 
         let metrics = Metrics(vec![
@@ -430,12 +450,11 @@ mod tests {
             .forward(obs.clone(), matrix(&batch.actions, a, &dev));
         let loss = (q1 - y.clone()).square().mean() + (q2 - y).square().mean();
         adam().step_in_place(&mut m.critic, &mut loss.backward(), lr);
-        // Actor against the updated first critic, then both targets.
-        let loss = m
-            .critic
-            .q1_frozen(obs.clone(), m.actor.forward(obs))
-            .mean()
-            .neg();
+        // Actor against the updated first critic (with the action penalty), then both
+        // targets.
+        let actions = m.actor.forward(obs.clone());
+        let loss = m.critic.q1_frozen(obs, actions.clone()).mean().neg()
+            + actions.square().mean().mul_scalar(c.action_l2);
         adam().step_in_place(&mut m.actor, &mut loss.backward(), lr);
         let tau = c.off_policy.tau;
         foosball_nets::polyak_update(&mut m.critic_target, &m.critic, tau);
@@ -477,9 +496,15 @@ mod tests {
                 activation: foosball_nets::Activation::Tanh,
                 ..NetConfig::default()
             },
+            action_l2: 0.7,
             ..Td3Config::default()
         };
         check_against_autodiff(options, (5, 3), vec![16]);
+        let penalised = Td3Config {
+            action_l2: 1.0,
+            ..Td3Config::default()
+        };
+        check_against_autodiff(penalised, (38, 8), vec![64, 64]);
     }
 
     #[test]
