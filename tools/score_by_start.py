@@ -41,7 +41,7 @@ def first_actions(episodes, x, steps=3):
     fmt = lambda v: " ".join(f"{u:+.3f}" for u in v)
     for t in range(steps):
         long_enough = np.array([len(acts) > t for _, _, acts, _ in episodes])
-        a = np.array([acts[t] for _, _, acts, _ in episodes if len(acts) > t])
+        a = np.array([acts[t] for (_, _, acts, _), keep in zip(episodes, long_enough) if keep])
         xs = x[long_enough]
         corr = [np.corrcoef(xs, a[:, j])[0, 1] if a[:, j].std() > 1e-6 else 0.0 for j in range(a.shape[1])]
         print(f"| {t} | {fmt(a.mean(0))} | {fmt(a.std(0))} | {fmt(corr)} |")
