@@ -1,7 +1,7 @@
 //! The learner a run configuration asks for, on the device of its backend.
 
 use crate::config::{AlgoConfig, RunConfig};
-use foosball_algos::{Agent, Normalized, Ppo, Sac, Td3};
+use foosball_algos::{Agent, FourierFeatures, Normalized, Ppo, Sac, Td3};
 use foosball_env::layout;
 use foosball_env::seeding::{LEARNER, derive_seed};
 use foosball_env::{ObservationConfig, ObservationKind};
@@ -15,19 +15,26 @@ const VALIDATED: &str = "RunConfig::validate admits only what the host path comp
 /// the observation `config.env` gives (38 state values, or an image through a CNN). Where
 /// [`RunConfig::computes_on_host`] the same networks compute on the host MLP path (a
 /// validated config). Under `[normalize]` the learner sees normalised observations and
-/// rewards ([`Normalized`]).
+/// rewards ([`Normalized`]); under `[fourier]` its networks read the Fourier features of
+/// the (normalised) observation ([`FourierFeatures`]).
 pub fn build_agent(config: &RunConfig, device: &Device) -> Box<dyn Agent + Send> {
-    let learner = build_learner(config, device);
+    let learner = match (&config.fourier, obs_shape(&config.env.observation)) {
+        (Some(f), ObsShape::Vector(width)) => {
+            let inner = build_learner(config, ObsShape::Vector(f.width(width)), device);
+            Box::new(FourierFeatures::new(inner, f.clone(), width))
+        }
+        (_, shape) => build_learner(config, shape, device),
+    };
     match &config.normalize {
         Some(n) => Box::new(Normalized::new(learner, n.clone())),
         None => learner,
     }
 }
 
-/// The algorithm's learner alone, without normalisation.
-fn build_learner(config: &RunConfig, device: &Device) -> Box<dyn Agent + Send> {
+/// The algorithm's learner alone, without normalisation, its networks reading `o`.
+fn build_learner(config: &RunConfig, o: ObsShape, device: &Device) -> Box<dyn Agent + Send> {
     let seed = derive_seed(config.protocol.seed, LEARNER, 0);
-    let (o, a) = (obs_shape(&config.env.observation), layout::ACTION_DIM);
+    let a = layout::ACTION_DIM;
     let on_host = config.computes_on_host();
     match &config.algorithm {
         AlgoConfig::Ppo(c) => {

@@ -4,7 +4,7 @@
 
 use crate::plan::PlannerConfig;
 use foosball_algos::{
-    NetConfig, NormalizeConfig, OffPolicyConfig, PpoConfig, SacConfig, Td3Config,
+    FourierConfig, NetConfig, NormalizeConfig, OffPolicyConfig, PpoConfig, SacConfig, Td3Config,
 };
 use foosball_env::{ConfigError, FoosballConfig, ObservationKind, OpponentKind, Serve};
 use foosball_nets::Backend;
@@ -622,6 +622,9 @@ pub struct RunConfig {
     /// Running normalisation of the learner's observations and rewards, SB3's
     /// `VecNormalize` (`None`: off, as in the paper).
     pub normalize: Option<NormalizeConfig>,
+    /// Fourier features of the (normalised) observation as the networks' input (`None`:
+    /// the values themselves).
+    pub fourier: Option<FourierConfig>,
 }
 
 /// A run configuration as TOML writes it: `algo` names the algorithm and at most that
@@ -648,6 +651,8 @@ struct RunConfigFile {
     dagger: Option<DaggerConfig>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     normalize: Option<NormalizeConfig>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    fourier: Option<FourierConfig>,
 }
 
 impl TryFrom<RunConfigFile> for RunConfig {
@@ -677,6 +682,7 @@ impl TryFrom<RunConfigFile> for RunConfig {
             curriculum: f.curriculum,
             dagger: f.dagger,
             normalize: f.normalize,
+            fourier: f.fourier,
         })
     }
 }
@@ -701,6 +707,7 @@ impl From<RunConfig> for RunConfigFile {
             curriculum: c.curriculum,
             dagger: c.dagger,
             normalize: c.normalize,
+            fourier: c.fourier,
         }
     }
 }
@@ -984,6 +991,17 @@ impl RunConfig {
                     "normalize",
                     "not with [dagger]: its labels join the demonstrations as training goes, \
                      raw, after the moments have moved",
+                ));
+            }
+        }
+        if let Some(f) = &self.fourier {
+            if self.env.observation.kind == ObservationKind::State {
+                f.validate(self.env.observation.dim())
+                    .map_err(|e| e.under("fourier"))?;
+            } else {
+                return Err(ConfigError::new(
+                    "fourier",
+                    "encodes the state vector: this run observes images",
                 ));
             }
         }

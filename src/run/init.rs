@@ -63,6 +63,13 @@ pub fn init_networks(config: &RunConfig, agent: &mut dyn Agent) -> Result<(), St
             reads(config),
         )));
     }
+    if saved.fourier != config.fourier {
+        return Err(refuse(format!(
+            "its networks read {}, this run's {} ([fourier])",
+            features(&saved),
+            features(config),
+        )));
+    }
     fits(&saved.env, &config.env).map_err(refuse)?;
     agent
         .load(&dir.join(checkpoint.name()))
@@ -74,4 +81,20 @@ pub fn init_networks(config: &RunConfig, agent: &mut dyn Agent) -> Result<(), St
             .map_err(|e| format!("protocol.init_blind_to_black: {e}"))?;
     }
     Ok(())
+}
+
+/// What a run's networks read under its `[fourier]`, in words.
+fn features(config: &RunConfig) -> String {
+    match &config.fourier {
+        Some(f) => format!(
+            "Fourier features ({} frequencies, scale {}, of values {})",
+            f.frequencies,
+            f.scale,
+            match f.inputs.is_empty() {
+                true => "all".to_string(),
+                false => format!("{:?}", f.inputs),
+            }
+        ),
+        None => "the observation values".into(),
+    }
 }

@@ -318,6 +318,64 @@ fn a_normalised_run_saves_its_moments_and_evaluate_reproduces_its_test() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A run whose networks read Fourier features plays its test again from its saved
+/// networks (the features rebuilt from its configuration); networks that read other
+/// features do not start it, and settings out of range are refused by key.
+#[test]
+fn a_fourier_run_replays_its_test_and_refuses_networks_of_other_features() {
+    let dir = scratch("fourier");
+    let text = |features: &str| {
+        common::tiny_config_text("td3", 1, 150) + "[normalize]\n[fourier]\n" + features
+    };
+    let write = |name: &str, body: String| {
+        let path = dir.join(name);
+        std::fs::write(&path, body).unwrap();
+        path
+    };
+    let path = write("td3.toml", text("frequencies = 3\n"));
+    let run_dir = dir.join("run");
+    let trained = run(&path, &run_dir, "1");
+    let r = run_dir.to_str().unwrap();
+    let o = evaluate(&["--run", r, "--checkpoint", "last"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let again = std::fs::read_to_string(run_dir.join("evaluate-last/metrics.json")).unwrap();
+    assert_eq!(again, trained);
+
+    let other = write("other.toml", text("frequencies = 2\n"));
+    let o = train(&[
+        "--config",
+        other.to_str().unwrap(),
+        "--out",
+        dir.join("fine").to_str().unwrap(),
+        "--init-from",
+        &format!("{r}@last"),
+    ]);
+    assert!(!o.status.success());
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains("[fourier]") && e.contains("3 frequencies"),
+        "{e}"
+    );
+
+    for (features, key) in [
+        ("frequencies = 0\n", "fourier.frequencies"),
+        ("scale = -1.0\n", "fourier.scale"),
+        ("inputs = [38]\n", "fourier.inputs"),
+    ] {
+        let bad = write("bad.toml", text(features));
+        let o = train(&[
+            "--config",
+            bad.to_str().unwrap(),
+            "--out",
+            dir.join("bad").to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(2));
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert!(e.contains(key), "{e}");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn the_paper_codes_test_plays_the_best_networks_sampled_and_evaluate_repeats_it() {
     let dir = scratch("code-test");

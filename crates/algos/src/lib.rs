@@ -3,7 +3,8 @@
 //! each in `plane_store`), PPO's rollout buffer and GAE (`rollout_buffer`), the collector
 //! that steps a VecEnv for any of them (`rollout`), demonstrations mixed into SAC's and
 //! TD3's minibatches (`demonstrations`), running normalisation of observations and rewards
-//! around any learner (`normalize`, SB3's `VecNormalize`), and the [`Agent`] shape through which one
+//! around any learner (`normalize`, SB3's `VecNormalize`), Fourier features of the
+//! observation around any learner (`fourier`), and the [`Agent`] shape through which one
 //! training loop drives all three.
 //!
 //! Each algorithm file states its update equations at the top (CleanRL style); the
@@ -13,6 +14,7 @@ pub mod agent;
 pub mod config;
 pub mod critics;
 pub mod demonstrations;
+pub mod fourier;
 pub mod network_path;
 pub mod normalize;
 pub mod off_policy;
@@ -35,6 +37,7 @@ mod test_support;
 pub use agent::{ActMode, Agent, AgentError, Experience, Metrics};
 pub use config::{ConfigError, NetConfig, OffPolicyConfig};
 pub use demonstrations::Demonstration;
+pub use fourier::{FourierConfig, FourierFeatures};
 pub use normalize::{NormalizeConfig, Normalized};
 pub use ppo::{Ppo, PpoConfig};
 pub use replay::{ReplayBatch, ReplayBuffer};

@@ -410,64 +410,12 @@ impl Agent for Normalized {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use std::sync::{Arc, Mutex};
-
-    /// What the inner agent was given: per `observe`, its observations and rewards.
-    type Log = Arc<Mutex<Vec<(Vec<f32>, Vec<f32>)>>>;
-
-    /// Records what it observes; acts with each observation's first value.
-    struct Recorder(Log);
-
-    impl Agent for Recorder {
-        fn obs_dim(&self) -> usize {
-            2
-        }
-        fn action_dim(&self) -> usize {
-            1
-        }
-        fn act(&mut self, obs: &[f32], _mode: ActMode) -> Vec<f32> {
-            obs.chunks(2).map(|o| o[0]).collect()
-        }
-        fn seed_sampling(&mut self, _seed: u64) {}
-        fn observe(&mut self, step: &Experience<'_>) {
-            let mut log = self.0.lock().unwrap();
-            log.push((step.obs.to_vec(), step.rewards.to_vec()));
-        }
-        fn update(&mut self, _p: f64) -> Option<Metrics> {
-            None
-        }
-        fn env_steps(&self) -> u64 {
-            0
-        }
-        fn gradient_steps(&self) -> u64 {
-            0
-        }
-        fn save(&self, _dir: &Path) -> Result<(), AgentError> {
-            Ok(())
-        }
-        fn load(&mut self, _dir: &Path) -> Result<(), AgentError> {
-            Ok(())
-        }
-        fn zero_obs_inputs(&mut self, _inputs: &[usize]) -> Result<(), String> {
-            Ok(())
-        }
-        fn save_state<'a>(&'a self, _snap: &mut Snapshot<'a>) {}
-        fn load_state(&mut self, _snap: &Snapshot<'_>) -> Result<(), SnapshotError> {
-            Ok(())
-        }
-        fn set_demonstrations(&mut self, episodes: &[Demonstration<'_>]) -> Result<usize, String> {
-            let mut log = self.0.lock().unwrap();
-            for e in episodes {
-                log.push((e.obs.to_vec(), e.rewards.to_vec()));
-            }
-            Ok(episodes.iter().map(|e| e.rewards.len()).sum())
-        }
-    }
+    use crate::test_support::{Log, Recorder};
 
     fn wrapped(config: NormalizeConfig) -> (Normalized, Log) {
         let log = Log::default();
         (
-            Normalized::new(Box::new(Recorder(log.clone())), config),
+            Normalized::new(Box::new(Recorder::new(2, log.clone())), config),
             log,
         )
     }

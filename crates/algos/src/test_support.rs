@@ -1,15 +1,19 @@
 //! What the learners' unit tests share: a CPU device, made-up minibatches, an Adam whose
 //! step shows a gradient's size, the gap between two updates of one network, and the
-//! checks every learner on the host MLP path passes.
+//! checks every learner on the host MLP path passes, and an agent that records what a
+//! wrapper hands it.
 
-use crate::agent::{ActMode, Agent};
+use crate::agent::{ActMode, Agent, AgentError, Experience, Metrics};
 use crate::config::NetConfig;
+use crate::demonstrations::Demonstration;
 use crate::off_policy::{OffPolicy, OffPolicyLearner};
 use crate::replay::ReplayBatch;
 use crate::tensors::standard_normal;
-use foosball_nets::{Backend, Device, ObsShape};
+use foosball_nets::{Backend, Device, ObsShape, Snapshot, SnapshotError};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use std::path::Path;
+use std::sync::{Arc, Mutex};
 
 /// The default CPU backend's (autodiff) device.
 pub fn device() -> Device {
@@ -143,5 +147,76 @@ pub fn steps_as_expected<L: OffPolicyLearner>(
             gap < 1e-4,
             "host path {host_path}: {gap} of the step's size"
         );
+    }
+}
+
+/// What a [`Recorder`] was given: per `observe` or demonstration, its observations and
+/// rewards.
+pub type Log = Arc<Mutex<Vec<(Vec<f32>, Vec<f32>)>>>;
+
+/// An agent of `width`-wide observations that records what it observes and the inputs
+/// it is asked to zero; acts with each observation's first value (one action).
+pub struct Recorder {
+    width: usize,
+    log: Log,
+    /// The input indices of every `zero_obs_inputs` call, in order.
+    pub zeroed: Arc<Mutex<Vec<usize>>>,
+}
+
+impl Recorder {
+    /// Records into `log`.
+    pub fn new(width: usize, log: Log) -> Self {
+        Self {
+            width,
+            log,
+            zeroed: Arc::default(),
+        }
+    }
+}
+
+impl Agent for Recorder {
+    fn obs_dim(&self) -> usize {
+        self.width
+    }
+    fn action_dim(&self) -> usize {
+        1
+    }
+    fn act(&mut self, obs: &[f32], _mode: ActMode) -> Vec<f32> {
+        obs.chunks(self.width).map(|o| o[0]).collect()
+    }
+    fn seed_sampling(&mut self, _seed: u64) {}
+    fn observe(&mut self, step: &Experience<'_>) {
+        let mut log = self.log.lock().unwrap();
+        log.push((step.obs.to_vec(), step.rewards.to_vec()));
+    }
+    fn update(&mut self, _p: f64) -> Option<Metrics> {
+        None
+    }
+    fn env_steps(&self) -> u64 {
+        0
+    }
+    fn gradient_steps(&self) -> u64 {
+        0
+    }
+    fn save(&self, _dir: &Path) -> Result<(), AgentError> {
+        Ok(())
+    }
+    fn load(&mut self, _dir: &Path) -> Result<(), AgentError> {
+        Ok(())
+    }
+    fn zero_obs_inputs(&mut self, inputs: &[usize]) -> Result<(), String> {
+        self.zeroed.lock().unwrap().extend_from_slice(inputs);
+        Ok(())
+    }
+    fn save_state<'a>(&'a self, _snap: &mut Snapshot<'a>) {}
+    fn load_state(&mut self, _snap: &Snapshot<'_>) -> Result<(), SnapshotError> {
+        Ok(())
+    }
+    fn set_demonstrations(&mut self, episodes: &[Demonstration<'_>]) -> Result<usize, String> {
+        let mut log = self.log.lock().unwrap();
+        for e in episodes {
+            log.push((e.obs.to_vec(), e.rewards.to_vec()));
+        }
+        Ok(episodes.iter().map(|e| e.rewards.len()).sum())
     }
 }
