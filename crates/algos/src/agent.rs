@@ -59,6 +59,43 @@ impl Experience<'_> {
     }
 }
 
+impl Experience<'_> {
+    /// The step's observations (acted on, next, final) passed through `f`, held to be
+    /// handed on by a wrapper ([`MappedObs::with`]).
+    pub fn map_obs(&self, f: impl Fn(&[f32]) -> Vec<f32>) -> MappedObs {
+        MappedObs {
+            obs: f(self.obs),
+            next_obs: f(self.next_obs),
+            finals: self.final_obs.iter().map(|o| o.map(&f)).collect(),
+        }
+    }
+}
+
+/// A step's observations as a wrapper hands them to its inner agent
+/// ([`Experience::map_obs`]).
+#[derive(Clone, Debug)]
+pub struct MappedObs {
+    obs: Vec<f32>,
+    next_obs: Vec<f32>,
+    finals: Vec<Option<Vec<f32>>>,
+}
+
+impl MappedObs {
+    /// `step` with these observations and `rewards` (`[n_envs]`).
+    pub fn with<'b>(&'b self, step: &Experience<'b>, rewards: &'b [f32]) -> Experience<'b> {
+        Experience {
+            obs: &self.obs,
+            actions: step.actions,
+            rewards,
+            next_obs: &self.next_obs,
+            final_obs: self.finals.iter().map(Option::as_deref).collect(),
+            terminated: step.terminated,
+            truncated: step.truncated,
+            absorbing: step.absorbing.clone(),
+        }
+    }
+}
+
 /// Named scalars from one training round (losses, entropy, temperature, ...), averaged
 /// over its gradient steps. On a GPU the values stay on the device: a log window reads
 /// all of its rounds' metrics in one transfer ([`Metrics::read`]).

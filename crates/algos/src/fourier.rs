@@ -172,19 +172,8 @@ impl Agent for FourierFeatures {
     }
 
     fn observe(&mut self, step: &Experience<'_>) {
-        let obs = self.features(step.obs);
-        let next_obs = self.features(step.next_obs);
-        let finals: Vec<Option<Vec<f32>>> = step
-            .final_obs
-            .iter()
-            .map(|f| f.map(|f| self.features(f)))
-            .collect();
-        self.inner.observe(&Experience {
-            obs: &obs,
-            next_obs: &next_obs,
-            final_obs: finals.iter().map(Option::as_deref).collect(),
-            ..step.clone()
-        });
+        let seen = step.map_obs(|o| self.features(o));
+        self.inner.observe(&seen.with(step, step.rewards));
     }
 
     fn update(&mut self, progress_remaining: f64) -> Option<Metrics> {

@@ -266,27 +266,12 @@ impl Agent for Normalized {
     /// The observations acted on are normalised again with the moments `act` used (only
     /// `act(.., Explore)` moves them), so the learner stores what it acted on.
     fn observe(&mut self, step: &Experience<'_>) {
-        let acted = self.observation(step.obs);
-        let next_obs = self.observation(step.next_obs);
-        let finals: Vec<Option<Vec<f32>>> = step
-            .final_obs
-            .iter()
-            .map(|f| f.map(|f| self.observation(f)))
-            .collect();
+        let seen = step.map_obs(|o| self.observation(o));
         let done: Vec<bool> = (0..step.len())
             .map(|i| step.terminated[i] || step.truncated[i])
             .collect();
         let rewards = self.rewards(step.rewards, &done);
-        self.inner.observe(&Experience {
-            obs: &acted,
-            actions: step.actions,
-            rewards: &rewards,
-            next_obs: &next_obs,
-            final_obs: finals.iter().map(Option::as_deref).collect(),
-            terminated: step.terminated,
-            truncated: step.truncated,
-            absorbing: step.absorbing.clone(),
-        });
+        self.inner.observe(&seen.with(step, &rewards));
     }
 
     fn update(&mut self, progress_remaining: f64) -> Option<Metrics> {
