@@ -57,9 +57,7 @@ impl Experience<'_> {
     pub fn reached(&self, i: usize, obs_dim: usize) -> &[f32] {
         self.final_obs[i].unwrap_or(&self.next_obs[i * obs_dim..(i + 1) * obs_dim])
     }
-}
 
-impl Experience<'_> {
     /// The step's observations (acted on, next, final) passed through `f`, held to be
     /// handed on by a wrapper ([`MappedObs::with`]).
     pub fn map_obs(&self, f: impl Fn(&[f32]) -> Vec<f32>) -> MappedObs {
