@@ -136,7 +136,7 @@ impl FourierFeatures {
     /// non-finite value stays non-finite in its whole block (the learners' guards see it).
     pub fn features(&self, obs: &[f32]) -> Vec<f32> {
         let n = obs.len() / self.encoded.len();
-        let mut out = Vec::with_capacity(n * self.config.width(self.encoded.len()));
+        let mut out = Vec::with_capacity(n * self.inner.obs_dim());
         for (&x, &encoded) in obs.iter().zip(self.encoded.iter().cycle()) {
             out.push(x);
             if encoded {
