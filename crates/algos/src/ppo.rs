@@ -59,6 +59,9 @@ pub struct PpoConfig {
     pub normalize_advantage: bool,
     /// Stop a rollout's epochs once approx-KL exceeds `1.5 * target_kl`.
     pub target_kl: Option<f32>,
+    /// Starting log standard deviation of every action dimension (SB3's `log_std_init`;
+    /// RL Zoo's PyBullet settings use -2): the policy's exploration before it learns.
+    pub log_std_init: f32,
 }
 
 impl Default for PpoConfig {
@@ -85,6 +88,7 @@ impl Default for PpoConfig {
             vf_coef: 0.5,
             normalize_advantage: true,
             target_kl: None,
+            log_std_init: 0.0,
         }
     }
 }
@@ -118,6 +122,11 @@ impl PpoConfig {
             self.target_kl.is_none_or(|k| k > 0.0),
             "target_kl",
             "must be positive",
+        )?;
+        ensure(
+            (-20.0..=2.0).contains(&self.log_std_init),
+            "log_std_init",
+            "must be in [-20, 2] (a standard deviation of 2e-9 to 7.4)",
         )
     }
 }
@@ -274,7 +283,7 @@ impl Ppo {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let n = &config.net;
         let mut init = n.init(obs, action_dim, &mut rng, device);
-        let policy = GaussianPolicy::new(&mut init);
+        let policy = GaussianPolicy::new(&mut init, config.log_std_init);
         let value = ValueCritic::new(&mut init);
         let model = ActorCritic { policy, value };
         let networks = BurnNetworks::new(model, Adam::new(n.adam.clone()), device, obs_dim);
@@ -759,6 +768,40 @@ mod tests {
         let want =
             crate::tensors::host(diag_gaussian_log_prob(mean, log_std, matrix(&raw, 2, &dev)));
         assert!((lp[0] - want[0]).abs() < 1e-4, "{lp:?} {want:?}");
+    }
+
+    #[test]
+    fn the_policy_explores_from_log_std_init_and_the_setting_is_checked() {
+        let c = PpoConfig {
+            log_std_init: -2.0,
+            ..PpoConfig::default()
+        };
+        let obs = [0.1, -0.4, 0.7];
+        let mut ppo = Ppo::new(3, 2, c.clone(), 5, &device());
+        let dev = device().without_autodiff();
+        let (_, log_std) = ppo.model().policy.valid().distribution(matrix(&obs, 3, &dev));
+        assert_eq!(host(log_std.flatten::<1>(0, 1)), vec![-2.0, -2.0]);
+        // Samples spread around the mean by e^-2 (0.135), 400 draws.
+        let mean = ppo.act(&obs, ActMode::Deterministic);
+        let draws: Vec<f32> = (0..400)
+            .flat_map(|_| ppo.act(&obs, ActMode::Sample))
+            .collect();
+        for (d, m) in mean.iter().enumerate() {
+            let sd = (draws.iter().skip(d).step_by(2).map(|x| (x - m).powi(2)).sum::<f32>()
+                / 400.0)
+                .sqrt();
+            assert!((sd - (-2.0f32).exp()).abs() < 0.02, "dim {d}: sd {sd}");
+        }
+        // The default is SB3's 0, and the same networks otherwise.
+        let plain = Ppo::new(3, 2, PpoConfig::default(), 5, &device()).model();
+        let (_, log_std) = plain.policy.valid().distribution(matrix(&obs, 3, &dev));
+        assert_eq!(host(log_std.flatten::<1>(0, 1)), vec![0.0, 0.0]);
+        let bad = PpoConfig {
+            log_std_init: f32::NAN,
+            ..PpoConfig::default()
+        };
+        let e = bad.validate().unwrap_err().to_string();
+        assert!(e.contains("log_std_init"), "{e}");
     }
 
     #[test]

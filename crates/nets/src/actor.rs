@@ -127,7 +127,7 @@ impl DeterministicActor {
 }
 
 /// PPO's policy: a Gaussian whose mean is `mlp(obs)` and whose log standard deviation
-/// is a state-independent parameter (initialised to 0, as SB3's `log_std_init`).
+/// is a state-independent parameter (initialised to `log_std_init`, 0 in SB3).
 /// Actions are unbounded; the caller clips them to `[-1, 1]` for the env.
 #[derive(Module, Debug)]
 pub struct GaussianPolicy {
@@ -137,11 +137,14 @@ pub struct GaussianPolicy {
 }
 
 impl GaussianPolicy {
-    /// Parameters drawn next from `init`'s RNG (its encoder first).
-    pub fn new(init: &mut NetInit<'_, impl Rng>) -> Self {
+    /// Parameters drawn next from `init`'s RNG (its encoder first); every action
+    /// dimension's log standard deviation starts at `log_std_init`.
+    pub fn new(init: &mut NetInit<'_, impl Rng>, log_std_init: f32) -> Self {
         let (encoder, features) = init.encoder();
         let net = init.mlp(features, init.action_dim);
-        let log_std = Param::from_tensor(Tensor::zeros([init.action_dim], init.device));
+        let log_std = Param::from_tensor(
+            Tensor::zeros([init.action_dim], init.device).add_scalar(log_std_init),
+        );
         Self {
             encoder,
             net,
