@@ -4,7 +4,8 @@
 //! that steps a VecEnv for any of them (`rollout`), demonstrations mixed into SAC's and
 //! TD3's minibatches (`demonstrations`), running normalisation of observations and rewards
 //! around any learner (`normalize`, SB3's `VecNormalize`), Fourier features of the
-//! observation around any learner (`fourier`), and the [`Agent`] shape through which one
+//! observation around any learner (`fourier`), exploration noise correlated over an
+//! episode's steps (`correlated_noise`, PPO's `noise_correlation`), and the [`Agent`] shape through which one
 //! training loop drives all three.
 //!
 //! Each algorithm file states its update equations at the top (CleanRL style); the
@@ -12,6 +13,7 @@
 
 pub mod agent;
 pub mod config;
+pub mod correlated_noise;
 pub mod critics;
 pub mod demonstrations;
 pub mod fourier;

@@ -6,6 +6,8 @@
 //! `L = L_clip + ent_coef * (-mean(entropy)) + vf_coef * MSE(returns, V(s))`,
 //! `L_clip = -mean(min(A ratio, A clip(ratio, 1 - eps, 1 + eps)))`,
 //! `ratio = exp(log pi(a|s) - log pi_old(a|s))`, advantages normalised per minibatch.
+//! Exploring actions are `mean + exp(log_std) x` with `x` standard normal, drawn anew
+//! each step (SB3) or an AR(1) process over the episode (`noise_correlation`).
 //!
 //! The minibatch step computes the loss's gradients with respect to the networks'
 //! outputs (`dL/d log pi = ratio dL/d ratio` with `dL/d ratio = -A / n` where the
@@ -16,6 +18,7 @@
 
 use crate::agent::{ActMode, Agent, AgentError, Experience, Metrics};
 use crate::config::{ConfigError, DEFAULT_GAMMA, NetConfig, check_gamma, ensure};
+use crate::correlated_noise::CorrelatedNoise;
 use crate::network_path::OnPath;
 pub use crate::ppo_networks::ActorCritic;
 use crate::ppo_networks::{BurnNetworks, Evaluation, HostNetworks, PpoNetworks};
@@ -62,6 +65,9 @@ pub struct PpoConfig {
     /// Starting log standard deviation of every action dimension (SB3's `log_std_init`;
     /// RL Zoo's PyBullet settings use -2): the policy's exploration before it learns.
     pub log_std_init: f32,
+    /// Step correlation `rho` in `[0, 1)` of the exploration noise, an AR(1) process
+    /// restarted with every episode ([`crate::correlated_noise`]); 0 is SB3's white noise.
+    pub noise_correlation: f32,
 }
 
 impl Default for PpoConfig {
@@ -89,6 +95,7 @@ impl Default for PpoConfig {
             normalize_advantage: true,
             target_kl: None,
             log_std_init: 0.0,
+            noise_correlation: 0.0,
         }
     }
 }
@@ -127,6 +134,11 @@ impl PpoConfig {
             (-20.0..=2.0).contains(&self.log_std_init),
             "log_std_init",
             "must be in [-20, 2] (a standard deviation of 2e-9 to 7.4)",
+        )?;
+        ensure(
+            (0.0..1.0).contains(&self.noise_correlation),
+            "noise_correlation",
+            "must be in [0, 1)",
         )
     }
 }
@@ -208,6 +220,7 @@ pub struct Ppo {
     rollout: RolloutBuffer,
     pending: Option<Pending>,
     episode_starts: Vec<f32>,
+    noise: CorrelatedNoise,
     last_obs: Vec<f32>,
     last_dones: Vec<f32>,
     env_steps: u64,
@@ -297,6 +310,7 @@ impl Ppo {
             rollout: RolloutBuffer::default(),
             pending: None,
             episode_starts: Vec::new(),
+            noise: CorrelatedNoise::new(config.noise_correlation),
             last_obs: Vec::new(),
             last_dones: Vec::new(),
             env_steps: 0,
@@ -430,6 +444,10 @@ impl Agent for Ppo {
             ActMode::Explore => &mut self.rng,
         };
         let noise = standard_normal(n, self.action_dim, rng);
+        let noise = match mode {
+            ActMode::Explore => self.noise.next(noise, &self.episode_starts),
+            _ => noise,
+        };
         let (actions, log_probs) = match &mut self.networks {
             OnPath::Burn(burn) => burn.sample(obs, &noise),
             OnPath::Host(host) => host.sample(obs, &noise),
@@ -540,6 +558,7 @@ impl Agent for Ppo {
         snap.put_f32("ppo.episode_starts", &self.episode_starts[..]);
         snap.put_f32("ppo.last_obs", &self.last_obs[..]);
         snap.put_f32("ppo.last_dones", &self.last_dones[..]);
+        self.noise.save_state(snap, "ppo.noise");
     }
 
     fn load_state(&mut self, snap: &Snapshot<'_>) -> Result<(), SnapshotError> {
@@ -555,6 +574,7 @@ impl Agent for Ppo {
         self.episode_starts = snap.f32s("ppo.episode_starts")?.to_vec();
         self.last_obs = snap.f32s("ppo.last_obs")?.to_vec();
         self.last_dones = snap.f32s("ppo.last_dones")?.to_vec();
+        self.noise.load_state(snap, "ppo.noise")?;
         self.pending = None;
         Ok(())
     }
@@ -779,7 +799,11 @@ mod tests {
         let obs = [0.1, -0.4, 0.7];
         let mut ppo = Ppo::new(3, 2, c.clone(), 5, &device());
         let dev = device().without_autodiff();
-        let (_, log_std) = ppo.model().policy.valid().distribution(matrix(&obs, 3, &dev));
+        let (_, log_std) = ppo
+            .model()
+            .policy
+            .valid()
+            .distribution(matrix(&obs, 3, &dev));
         assert_eq!(host(log_std.flatten::<1>(0, 1)), vec![-2.0, -2.0]);
         // Samples spread around the mean by e^-2 (0.135), 400 draws.
         let mean = ppo.act(&obs, ActMode::Deterministic);
@@ -787,7 +811,12 @@ mod tests {
             .flat_map(|_| ppo.act(&obs, ActMode::Sample))
             .collect();
         for (d, m) in mean.iter().enumerate() {
-            let sd = (draws.iter().skip(d).step_by(2).map(|x| (x - m).powi(2)).sum::<f32>()
+            let sd = (draws
+                .iter()
+                .skip(d)
+                .step_by(2)
+                .map(|x| (x - m).powi(2))
+                .sum::<f32>()
                 / 400.0)
                 .sqrt();
             assert!((sd - (-2.0f32).exp()).abs() < 0.02, "dim {d}: sd {sd}");
@@ -802,6 +831,107 @@ mod tests {
         };
         let e = bad.validate().unwrap_err().to_string();
         assert!(e.contains("log_std_init"), "{e}");
+    }
+
+    /// One explored step of `ppo` on two envs at made-up observation `k` (env 0 ending its
+    /// episode where `done`), its actions.
+    fn explore_step(ppo: &mut Ppo, k: usize, done: bool) -> Vec<f32> {
+        let obs: Vec<f32> = (0..6).map(|i| ((k * 6 + i) as f32 * 0.37).sin()).collect();
+        let actions = ppo.act(&obs, ActMode::Explore);
+        ppo.observe(&Experience {
+            obs: &obs,
+            actions: &actions,
+            rewards: &[0.0, 0.0],
+            next_obs: &obs,
+            final_obs: vec![None, None],
+            terminated: &[done, false],
+            truncated: &[false, false],
+            absorbing: vec![false, false],
+        });
+        actions
+    }
+
+    #[test]
+    fn correlated_noise_holds_deviations_restarts_with_episodes_and_resumes() {
+        let c = PpoConfig {
+            noise_correlation: 0.95,
+            log_std_init: -3.0,
+            ..PpoConfig::default()
+        };
+        let mut ppo = Ppo::new(3, 2, c.clone(), 5, &device());
+        let mut white = Ppo::new(
+            3,
+            2,
+            PpoConfig {
+                log_std_init: -3.0,
+                ..PpoConfig::default()
+            },
+            5,
+            &device(),
+        );
+        // The first step is the same draw; later ones move by far less than white noise.
+        let (a0, w0) = (
+            explore_step(&mut ppo, 0, false),
+            explore_step(&mut white, 0, false),
+        );
+        assert_eq!(a0, w0);
+        let steps = |p: &mut Ppo| -> f32 {
+            let mut prev = explore_step(p, 0, false);
+            let mut moved = 0.0;
+            for _ in 1..200 {
+                let a = explore_step(p, 0, false);
+                moved += (a[0] - prev[0]).abs();
+                prev = a;
+            }
+            moved
+        };
+        let (held, jumpy) = (steps(&mut ppo), steps(&mut white));
+        assert!(held < 0.5 * jumpy, "held {held}, white {jumpy}");
+        // A snapshot mid-episode carries the process: the same next actions after a load.
+        let path = std::env::temp_dir().join(format!("ppo-noise-{}.bin", std::process::id()));
+        let mut written = Snapshot::new();
+        ppo.save_state(&mut written);
+        written.write(&path).unwrap();
+        let snap = Snapshot::read(&path).unwrap();
+        std::fs::remove_file(&path).unwrap();
+        let mut resumed = Ppo::new(3, 2, c.clone(), 5, &device());
+        resumed.load_state(&snap).unwrap();
+        for k in 0..3 {
+            assert_eq!(
+                explore_step(&mut ppo, k, k == 1),
+                explore_step(&mut resumed, k, k == 1)
+            );
+        }
+        // Env 0 ended its episode at k = 1: its next noise is a fresh draw, env 1's is not.
+        let mut restarted = Ppo::new(3, 2, c, 5, &device());
+        restarted.load_state(&snap).unwrap();
+        let mut check = Ppo::new(
+            3,
+            2,
+            PpoConfig {
+                log_std_init: -3.0,
+                ..PpoConfig::default()
+            },
+            5,
+            &device(),
+        );
+        check.load_state(&snap).unwrap();
+        for k in 0..2 {
+            explore_step(&mut restarted, k, k == 1);
+            explore_step(&mut check, k, k == 1);
+        }
+        let (r, w) = (
+            explore_step(&mut restarted, 2, false),
+            explore_step(&mut check, 2, false),
+        );
+        assert_eq!(r[..2], w[..2], "env 0 restarts from the fresh draw");
+        assert_ne!(r[2..], w[2..], "env 1 goes on with its process");
+        let bad = PpoConfig {
+            noise_correlation: 1.0,
+            ..PpoConfig::default()
+        };
+        let e = bad.validate().unwrap_err().to_string();
+        assert!(e.contains("noise_correlation"), "{e}");
     }
 
     #[test]
