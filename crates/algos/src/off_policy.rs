@@ -25,6 +25,9 @@ pub trait OffPolicyLearner {
     fn train_step(&mut self, batch: &ReplayBatch, lr: f64, rng: &mut ChaCha8Rng) -> Metrics;
     /// Gradient steps taken so far.
     fn gradient_steps(&self) -> u64;
+    /// Told after each explored step which envs' episodes `ended` (terminated or
+    /// truncated), for exploration that spans an episode; nothing by default.
+    fn episodes_ended(&mut self, _ended: &[bool]) {}
     /// Writes the networks into `dir`.
     fn save(&self, dir: &Path) -> Result<(), AgentError>;
     /// Reads the networks from `dir`.
@@ -200,6 +203,10 @@ impl<L: OffPolicyLearner> Agent for OffPolicy<L> {
                 self.windows[i].clear();
             }
         }
+        let ended: Vec<bool> = (0..step.len())
+            .map(|i| step.terminated[i] || step.truncated[i])
+            .collect();
+        self.learner.episodes_ended(&ended);
         self.env_steps += step.len() as u64;
         self.steps_since_train += 1;
     }

@@ -10,7 +10,9 @@
 //!    (the penalty 0 by default, as SB3; OpenAI Baselines' HER DDPG uses 1), then polyak
 //!    updates of both target networks (targets move only on these delayed steps).
 //!
-//! Exploration adds `N(0, action_noise^2)` to the deterministic action, clipped to `[-1, 1]`.
+//! Exploration adds `action_noise * x` to the deterministic action, clipped to `[-1, 1]`,
+//! `x` standard normal drawn anew each step (SB3) or an AR(1) process over the episode
+//! (`action_noise_correlation`, [`crate::correlated_noise`]; DDPG's Ornstein-Uhlenbeck).
 //!
 //! The step computes the losses' gradients with respect to the networks' outputs
 //! (`dL/dQk = 2 (Qk - y) / n`; the actor's `dL/dQ1 = -1 / n`, walked back through the
@@ -19,6 +21,7 @@
 
 use crate::agent::{ActMode, AgentError, Metrics};
 use crate::config::{ConfigError, DEFAULT_GAMMA, NetConfig, OffPolicyConfig, check_gamma, ensure};
+use crate::correlated_noise::CorrelatedNoise;
 use crate::critics::{Critics, Walk};
 use crate::network_path::OnPath;
 use crate::off_policy::{OffPolicy, OffPolicyLearner};
@@ -57,6 +60,9 @@ pub struct Td3Config {
     /// actor off actions the table answers alike, such as a turn past the paper code's
     /// clamp at `|a|` > 0.125, where the critic's slope in the action is zero.
     pub action_l2: f32,
+    /// Step correlation `rho` in `[0, 1)` of the exploration noise, an AR(1) process
+    /// restarted with every episode; 0 is SB3's white noise.
+    pub action_noise_correlation: f32,
 }
 
 impl Default for Td3Config {
@@ -70,6 +76,7 @@ impl Default for Td3Config {
             target_noise_clip: 0.5,
             action_noise: 0.1,
             action_l2: 0.0,
+            action_noise_correlation: 0.0,
         }
     }
 }
@@ -103,6 +110,11 @@ impl Td3Config {
             non_negative(self.action_l2),
             "action_l2",
             "must be finite and >= 0",
+        )?;
+        ensure(
+            (0.0..1.0).contains(&self.action_noise_correlation),
+            "action_noise_correlation",
+            "must be in [0, 1)",
         )
     }
 }
@@ -128,6 +140,9 @@ pub struct Td3 {
     networks: OnPath<BurnNetworks, HostNetworks>,
     gradient_steps: u64,
     last_actor_loss: Scalar,
+    noise: CorrelatedNoise,
+    /// Per env, 1 where the next action begins an episode.
+    noise_starts: Vec<f32>,
 }
 
 /// TD3 with its replay buffer: the [`crate::Agent`] to train.
@@ -165,6 +180,8 @@ impl Td3 {
             networks: OnPath::Burn(Box::new(networks)),
             gradient_steps: 0,
             last_actor_loss: Scalar::Host(f64::NAN),
+            noise: CorrelatedNoise::new(config.action_noise_correlation),
+            noise_starts: Vec::new(),
             config,
         };
         let (schedule, lr) = (learner.config.off_policy.clone(), learner.config.net.lr);
@@ -297,6 +314,8 @@ impl OffPolicyLearner for Td3 {
         let sigma = self.config.action_noise;
         if mode == ActMode::Explore && sigma > 0.0 {
             let noise = standard_normal(actions.len(), 1, rng);
+            let noise = self.noise.next(noise, &self.noise_starts);
+            self.noise_starts.fill(0.0);
             for (x, e) in actions.iter_mut().zip(noise) {
                 *x = (*x + sigma * e).clamp(-1.0, 1.0);
             }
@@ -325,6 +344,10 @@ impl OffPolicyLearner for Td3 {
 
     fn gradient_steps(&self) -> u64 {
         self.gradient_steps
+    }
+
+    fn episodes_ended(&mut self, ended: &[bool]) {
+        self.noise_starts = ended.iter().map(|&e| f32::from(u8::from(e))).collect();
     }
 
     fn save(&self, dir: &Path) -> Result<(), AgentError> {
@@ -360,6 +383,10 @@ impl OffPolicyLearner for Td3 {
         }
         snap.put_u64("td3.gradient_steps", self.gradient_steps);
         snap.put_f64("td3.last_actor_loss", self.last_actor_loss.clone().read());
+        self.noise.save_state(snap, "td3.noise");
+        if self.config.action_noise_correlation != 0.0 {
+            snap.put_f32("td3.noise_starts", &self.noise_starts[..]);
+        }
     }
 
     fn load_state(&mut self, snap: &Snapshot<'_>) -> Result<(), SnapshotError> {
@@ -376,6 +403,10 @@ impl OffPolicyLearner for Td3 {
         }
         self.gradient_steps = snap.u64("td3.gradient_steps")?;
         self.last_actor_loss = Scalar::Host(snap.f64("td3.last_actor_loss")?);
+        self.noise.load_state(snap, "td3.noise")?;
+        if self.config.action_noise_correlation != 0.0 {
+            self.noise_starts = snap.f32s("td3.noise_starts")?.to_vec();
+        }
         Ok(())
     }
 }
@@ -524,5 +555,85 @@ mod tests {
                 .learner_mut()
                 .on_host_path()
         });
+    }
+
+    use crate::Agent;
+
+    /// A TD3 agent on 2 envs (3 -> 2) that acts from its first step, exploration noise 0.2
+    /// of step correlation `rho`, gradient steps far away.
+    fn exploring(rho: f32) -> Td3Agent {
+        let mut c = Td3Config {
+            action_noise: 0.2,
+            action_noise_correlation: rho,
+            ..Td3Config::default()
+        };
+        c.off_policy.learning_starts = 0;
+        c.off_policy.train_freq = 1_000_000;
+        Td3::agent(3, 2, c, 4, &device())
+    }
+
+    /// One explored step at a fixed observation, env 0's episode ending where `done`.
+    fn explore_step(agent: &mut Td3Agent, done: bool) -> Vec<f32> {
+        let obs = [0.1, -0.4, 0.7, 0.2, 0.0, -0.3];
+        let actions = agent.act(&obs, ActMode::Explore);
+        agent.observe(&crate::Experience {
+            obs: &obs,
+            actions: &actions,
+            rewards: &[0.0, 0.0],
+            next_obs: &obs,
+            final_obs: vec![None, None],
+            terminated: &[done, false],
+            truncated: &[false, false],
+            absorbing: vec![false, false],
+        });
+        actions
+    }
+
+    #[test]
+    fn correlated_action_noise_holds_deviations_restarts_with_episodes_and_resumes() {
+        let moved = |agent: &mut Td3Agent| -> f32 {
+            let mut prev = explore_step(agent, false);
+            (0..200)
+                .map(|_| {
+                    let a = explore_step(agent, false);
+                    let d = (a[0] - prev[0]).abs();
+                    prev = a;
+                    d
+                })
+                .sum()
+        };
+        let (mut held, mut white) = (exploring(0.95), exploring(0.0));
+        let (h, w) = (moved(&mut held), moved(&mut white));
+        assert!(h < 0.5 * w, "held {h}, white {w}");
+        // Mid-episode through a snapshot file: the same actions after a load, and env 0
+        // restarts from its fresh draw after its episode ends (as white noise draws it).
+        let path = std::env::temp_dir().join(format!("td3-noise-{}.bin", std::process::id()));
+        let mut written = Snapshot::new();
+        held.save_state(&mut written);
+        written.write(&path).unwrap();
+        let snap = Snapshot::read(&path).unwrap();
+        std::fs::remove_file(&path).unwrap();
+        let (mut resumed, mut fresh) = (exploring(0.95), exploring(0.0));
+        resumed.load_state(&snap).unwrap();
+        fresh.load_state(&snap).unwrap();
+        for done in [false, true] {
+            assert_eq!(
+                explore_step(&mut held, done),
+                explore_step(&mut resumed, done)
+            );
+            explore_step(&mut fresh, done);
+        }
+        let (r, f) = (
+            explore_step(&mut resumed, false),
+            explore_step(&mut fresh, false),
+        );
+        assert_eq!(r[..2], f[..2], "env 0 restarts from the fresh draw");
+        assert_ne!(r[2..], f[2..], "env 1 goes on with its process");
+        let bad = Td3Config {
+            action_noise_correlation: -0.1,
+            ..Td3Config::default()
+        };
+        let e = bad.validate().unwrap_err().to_string();
+        assert!(e.contains("action_noise_correlation"), "{e}");
     }
 }
