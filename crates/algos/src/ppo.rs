@@ -5,7 +5,11 @@
 //! shuffled minibatches minimising
 //! `L = L_clip + ent_coef * (-mean(entropy)) + vf_coef * MSE(returns, V(s))`,
 //! `L_clip = -mean(min(A ratio, A clip(ratio, 1 - eps, 1 + eps)))`,
-//! `ratio = exp(log pi(a|s) - log pi_old(a|s))`, advantages normalised per minibatch.
+//! `ratio = exp(log pi(a|s) - log pi_old(a|s))`, advantages normalised per minibatch,
+//! plus, under `bounds_loss_coef` > 0, rl_games' bound loss on the policy's means
+//! `bounds_loss_coef * mean over rows of sum_j (max(mu_j - b, 0)^2 + min(mu_j + b, 0)^2)`,
+//! `b = bounds_soft_bound`: the env clips actions to `[-1, 1]`, so a mean far past a
+//! bound explores nothing on that action.
 //! Exploring actions are `mean + exp(log_std) x` with `x` standard normal, drawn anew
 //! each step (SB3) or an AR(1) process over the episode (`noise_correlation`).
 //!
@@ -68,6 +72,11 @@ pub struct PpoConfig {
     /// Step correlation `rho` in `[0, 1)` of the exploration noise, an AR(1) process
     /// restarted with every episode ([`crate::correlated_noise`]); 0 is SB3's white noise.
     pub noise_correlation: f32,
+    /// Weight of the bound loss on the policy's means (rl_games' `bounds_loss_coef`; 0:
+    /// off, as in SB3).
+    pub bounds_loss_coef: f32,
+    /// Where the bound loss starts, `|mean|` past it (rl_games' 1.1).
+    pub bounds_soft_bound: f32,
 }
 
 impl Default for PpoConfig {
@@ -96,6 +105,8 @@ impl Default for PpoConfig {
             target_kl: None,
             log_std_init: 0.0,
             noise_correlation: 0.0,
+            bounds_loss_coef: 0.0,
+            bounds_soft_bound: 1.1,
         }
     }
 }
@@ -139,6 +150,16 @@ impl PpoConfig {
             (0.0..1.0).contains(&self.noise_correlation),
             "noise_correlation",
             "must be in [0, 1)",
+        )?;
+        ensure(
+            self.bounds_loss_coef.is_finite() && self.bounds_loss_coef >= 0.0,
+            "bounds_loss_coef",
+            "must be finite and >= 0",
+        )?;
+        ensure(
+            self.bounds_soft_bound.is_finite() && self.bounds_soft_bound >= 0.0,
+            "bounds_soft_bound",
+            "must be finite and >= 0",
         )
     }
 }
@@ -199,6 +220,20 @@ pub fn clipped_surrogate<R: Rows>(
         clip_fraction: r.mean(&r.affine(&inside, -1.0, 1.0)),
         approx_kl: r.mean(&r.sub(&excess, &log_ratio)),
     }
+}
+
+/// The bound loss of `means` (`[batch, action_dim]`, `batch` rows) past `bound`, weight
+/// `coef`, and its gradient with respect to the means:
+/// `L = coef / batch * sum (max(mu - b, 0)^2 + min(mu + b, 0)^2)`,
+/// `dL/dmu = 2 coef / batch * (max(mu - b, 0) + min(mu + b, 0))`.
+pub fn bound_loss(means: &[f32], batch: usize, coef: f32, bound: f32) -> (f32, Vec<f32>) {
+    let per_row = coef / batch as f32;
+    let past: Vec<f32> = means
+        .iter()
+        .map(|&m| (m - bound).max(0.0) + (m + bound).min(0.0))
+        .collect();
+    let loss = per_row * past.iter().map(|p| p * p).sum::<f32>();
+    (loss, past.iter().map(|p| 2.0 * per_row * p).collect())
 }
 
 /// What `act(.., Explore)` computed, kept for `observe`.
@@ -270,15 +305,28 @@ fn minibatch_step<N: PpoNetworks>(
     let value_loss = r.mean(&r.square(&error));
     let d_values = r.affine(&error, 2.0 * c.vf_coef * per_row, 0.0);
     let d_entropy = r.affine(&entropy, 0.0, -c.ent_coef * per_row);
-    let report = nets.step(&s.d_log_prob, &d_entropy, &d_values, lr);
-    Some(Metrics(vec![
+    let bounds = (c.bounds_loss_coef > 0.0).then(|| {
+        bound_loss(
+            &nets.kept_means(),
+            n,
+            c.bounds_loss_coef,
+            c.bounds_soft_bound,
+        )
+    });
+    let d_means = bounds.as_ref().map(|(_, d)| &d[..]);
+    let report = nets.step(&s.d_log_prob, &d_entropy, &d_values, d_means, lr);
+    let mut metrics = vec![
         ("policy_loss", r.scalar(&s.loss)),
         ("value_loss", r.scalar(&value_loss)),
         ("entropy", r.scalar(&r.mean(&entropy))),
         ("approx_kl", approx_kl),
         ("clip_fraction", r.scalar(&s.clip_fraction)),
         ("grad_norm", report.grad_norm),
-    ]))
+    ];
+    if let Some((loss, _)) = bounds {
+        metrics.push(("bounds_loss", f64::from(loss).into()));
+    }
+    Some(Metrics(metrics))
 }
 
 impl Ppo {
@@ -621,15 +669,24 @@ mod tests {
         let dev = device();
         let obs = matrix(&mb.obs, o, &dev);
         let (log_prob, entropy) = m.policy.evaluate(obs.clone(), matrix(&mb.actions, a, &dev));
-        let values = m.value.forward(obs);
+        let values = m.value.forward(obs.clone());
         let ratio = (log_prob - vector(&mb.old_log_probs, &dev)).exp();
         let adv = vector(&mb.advantages, &dev);
         let clipped = adv.clone() * ratio.clone().clamp(1.0 - c.clip_range, 1.0 + c.clip_range);
         let policy_loss = (adv * ratio).min_pair(clipped).mean().neg();
         let value_loss = (vector(&mb.returns, &dev) - values).square().mean();
+        let (mean, _) = m.policy.distribution(obs);
+        let b = c.bounds_soft_bound;
+        let past = mean.clone().sub_scalar(b).clamp_min(0.0) + mean.add_scalar(b).clamp_max(0.0);
+        let bounds = past
+            .square()
+            .sum_dim(1)
+            .mean()
+            .mul_scalar(c.bounds_loss_coef);
         let loss = policy_loss
             + entropy.mean().neg().mul_scalar(c.ent_coef)
-            + value_loss.mul_scalar(c.vf_coef);
+            + value_loss.mul_scalar(c.vf_coef)
+            + bounds;
         let mut adam = Adam::new(c.net.adam.clone());
         adam.step_in_place(&mut m, &mut loss.backward(), 10.0);
         m
@@ -669,6 +726,29 @@ mod tests {
         relu.net.adam.max_grad_norm = None;
         relu.clip_range = 0.1;
         check_against_autodiff(relu, (5, 3), vec![16]);
+        // The bound loss, reaching every mean (bound 0.05) and only some (0.2).
+        for bound in [0.05, 0.2] {
+            let bounded = PpoConfig {
+                bounds_loss_coef: 5.0,
+                bounds_soft_bound: bound,
+                ..PpoConfig::default()
+            };
+            check_against_autodiff(bounded, (38, 8), vec![64, 64]);
+        }
+    }
+
+    #[test]
+    fn the_bound_loss_reaches_only_means_past_the_bound() {
+        // Two rows of two means, bound 1, weight 0.5: (1.5, -0.2) and (-3, 1).
+        let (loss, d) = bound_loss(&[1.5, -0.2, -3.0, 1.0], 2, 0.5, 1.0);
+        assert!((loss - 0.25 * (0.25 + 4.0)).abs() < 1e-6, "{loss}");
+        assert_eq!(d, vec![0.5 * 0.5, 0.0, 0.5 * -2.0, 0.0]);
+        let bad = PpoConfig {
+            bounds_loss_coef: -1.0,
+            ..PpoConfig::default()
+        };
+        let e = bad.validate().unwrap_err().to_string();
+        assert!(e.contains("bounds_loss_coef"), "{e}");
     }
 
     #[test]

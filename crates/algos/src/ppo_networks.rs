@@ -11,7 +11,7 @@ use crate::network_path::HoldsModules;
 use crate::rows::{DeviceRows, HostRows, Matrix, Rows};
 use crate::tensors::{host, matrix};
 use burn::module::Module;
-use foosball_nets::distributions::diag_gaussian_log_prob;
+use foosball_nets::distributions::{diag_gaussian_entropy, diag_gaussian_log_prob};
 use foosball_nets::{
     Adam, Device, GaussianPolicy, HostGaussianPolicy, HostMlp, MlpTape, StepReport, Tensor,
     ValueCritic,
@@ -50,13 +50,18 @@ pub trait PpoNetworks {
         obs: &<Self::R as Rows>::M,
         actions: &<Self::R as Rows>::M,
     ) -> Evaluation<<Self::R as Rows>::V>;
+    /// The policy's means `[batch, action_dim]` in the kept evaluation, on the host (a
+    /// read on a GPU).
+    fn kept_means(&self) -> Vec<f32>;
     /// One Adam step on both networks from `dL/d log pi`, `dL/d entropy` and `dL/dV`
-    /// (`[batch]` each) of the kept evaluation.
+    /// (`[batch]` each) of the kept evaluation, and `dL/d mean` `[batch, action_dim]`
+    /// where a loss term reads the means themselves.
     fn step(
         &mut self,
         d_log_prob: &<Self::R as Rows>::V,
         d_entropy: &<Self::R as Rows>::V,
         d_values: &<Self::R as Rows>::V,
+        d_means: Option<&[f32]>,
         lr: f64,
     ) -> StepReport;
     /// The policy's means `[n, action_dim]` for `obs [n, obs_dim]`.
@@ -80,8 +85,8 @@ pub struct BurnNetworks {
     /// Their optimiser.
     pub optim: Adam,
     device: Device,
-    /// The kept `log pi`, entropy and `V` in the graph.
-    kept: Option<[Tensor<1>; 3]>,
+    /// The kept `log pi`, entropy and `V` in the graph, and the means `[batch, action_dim]`.
+    kept: Option<([Tensor<1>; 3], Tensor<2>)>,
     obs_dim: usize,
 }
 
@@ -127,18 +132,23 @@ impl PpoNetworks for BurnNetworks {
 
     fn evaluate(&mut self, obs: &Tensor<2>, actions: &Tensor<2>) -> Evaluation<Tensor<1>> {
         let obs = obs.clone().autodiff();
-        let (log_prob, entropy) = self
-            .model
-            .policy
-            .evaluate(obs.clone(), actions.clone().autodiff());
+        let (mean, log_std) = self.model.policy.distribution(obs.clone());
+        let log_prob =
+            diag_gaussian_log_prob(mean.clone(), log_std.clone(), actions.clone().autodiff());
+        let entropy = diag_gaussian_entropy(log_std);
         let values = self.model.value.forward(obs);
         let out = Evaluation {
             log_prob: log_prob.clone().inner(),
             entropy: entropy.clone().inner(),
             values: values.clone().inner(),
         };
-        self.kept = Some([log_prob, entropy, values]);
+        self.kept = Some(([log_prob, entropy, values], mean));
         out
+    }
+
+    fn kept_means(&self) -> Vec<f32> {
+        let (_, mean) = self.kept.as_ref().expect("a kept evaluation");
+        host(mean.clone().inner())
     }
 
     fn step(
@@ -146,12 +156,17 @@ impl PpoNetworks for BurnNetworks {
         d_log_prob: &Tensor<1>,
         d_entropy: &Tensor<1>,
         d_values: &Tensor<1>,
+        d_means: Option<&[f32]>,
         lr: f64,
     ) -> StepReport {
-        let [log_prob, entropy, values] = self.kept.take().expect("a kept evaluation");
-        let walked = (log_prob * d_log_prob.clone().autodiff()).sum()
+        let ([log_prob, entropy, values], mean) = self.kept.take().expect("a kept evaluation");
+        let mut walked = (log_prob * d_log_prob.clone().autodiff()).sum()
             + (entropy * d_entropy.clone().autodiff()).sum()
             + (values * d_values.clone().autodiff()).sum();
+        if let Some(d) = d_means {
+            let d = matrix(d, mean.dims()[1], &self.plain()).autodiff();
+            walked = walked + (mean * d).sum();
+        }
         let mut grads = walked.backward();
         self.optim.step_in_place(&mut self.model, &mut grads, lr)
     }
@@ -255,17 +270,27 @@ impl PpoNetworks for HostNetworks {
         }
     }
 
+    fn kept_means(&self) -> Vec<f32> {
+        self.policy.kept_means().to_vec()
+    }
+
     fn step(
         &mut self,
         d_log_prob: &Vec<f32>,
         d_entropy: &Vec<f32>,
         d_values: &Vec<f32>,
+        d_means: Option<&[f32]>,
         lr: f64,
     ) -> StepReport {
         self.grads.fill(0.0);
         let (policy_grads, rest) = self.grads.split_at_mut(self.policy.mlp.params().len());
         let (log_std_grads, value_grads) = rest.split_at_mut(self.policy.log_std.len());
-        (self.policy).backward(d_log_prob, d_entropy, policy_grads, log_std_grads);
+        (self.policy).backward(
+            (d_log_prob, d_entropy),
+            d_means,
+            policy_grads,
+            log_std_grads,
+        );
         (self.value).backward(&mut self.value_tape, d_values, Some(value_grads), None);
         let mut params = [
             self.policy.mlp.params_mut(),

@@ -328,12 +328,18 @@ impl HostGaussianPolicy {
         (raw, log_probs)
     }
 
+    /// The means `[batch, action_dim]` of the latest [`HostGaussianPolicy::evaluate`].
+    pub fn kept_means(&self) -> &[f32] {
+        self.tape.output()
+    }
+
     /// Adds `dL/dparams` of the latest evaluation to `grads` (the MLP's layout) and
-    /// `dL/dlog_std` to `log_std_grads`, given `d_log_prob` and `d_entropy` `[batch]`.
+    /// `dL/dlog_std` to `log_std_grads`, given `d_log_prob` and `d_entropy` `[batch]` and,
+    /// where a loss reads the means themselves, `d_means` `[batch, action_dim]`.
     pub fn backward(
         &mut self,
-        d_log_prob: &[f32],
-        d_entropy: &[f32],
+        (d_log_prob, d_entropy): (&[f32], &[f32]),
+        d_means: Option<&[f32]>,
         grads: &mut [f32],
         log_std_grads: &mut [f32],
     ) {
@@ -346,7 +352,8 @@ impl HostGaussianPolicy {
         for i in 0..batch {
             for j in 0..a {
                 let z = self.z[i * a + j];
-                d_mean[i * a + j] = d_log_prob[i] * z / std[j];
+                d_mean[i * a + j] =
+                    d_log_prob[i] * z / std[j] + d_means.map_or(0.0, |d| d[i * a + j]);
                 log_std_grads[j] += d_log_prob[i] * (z * z - 1.0) + d_entropy[i];
             }
         }
