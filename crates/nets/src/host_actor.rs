@@ -352,9 +352,13 @@ impl HostGaussianPolicy {
         for i in 0..batch {
             for j in 0..a {
                 let z = self.z[i * a + j];
-                d_mean[i * a + j] =
-                    d_log_prob[i] * z / std[j] + d_means.map_or(0.0, |d| d[i * a + j]);
+                d_mean[i * a + j] = d_log_prob[i] * z / std[j];
                 log_std_grads[j] += d_log_prob[i] * (z * z - 1.0) + d_entropy[i];
+            }
+        }
+        if let Some(extra) = d_means {
+            for (d, e) in d_mean.iter_mut().zip(extra) {
+                *d += e;
             }
         }
         self.mlp
