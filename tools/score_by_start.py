@@ -6,6 +6,8 @@ the test, not committed); numpy only.
     python tools/score_by_start.py results/recipe-v4/sac-recipe-seed{0,1,2,3,4}
     python tools/score_by_start.py RUN... --test evaluate-last-on-reference   # another game's test
     python tools/score_by_start.py RUN --first-actions   # and how its first actions follow x
+    python tools/score_by_start.py RUN --test evaluate-last-stochastic --at-bound 4 --split-x -0.22
+        # sampled episodes: the score rate where the first midfield slide sat at a bound or not
 
 Prints, for the first run, the score rate in 12 bins of the start's x; then for every
 other run the chance that it scores on a start where the first one scores and where the
@@ -47,6 +49,19 @@ def first_actions(episodes, x, steps=3):
         print(f"| {t} | {fmt(a.mean(0))} | {fmt(a.std(0))} | {fmt(corr)} |")
 
 
+def at_bound(episodes, x, scored, j, split_x):
+    """The score rate of the episodes whose first action `j` sat at -1 or +1 against those
+    where it lay inside, on the starts left of `split_x` (world cm) and right of it."""
+    a = np.array([acts[0][j] for _, _, acts, _ in episodes])
+    bound = np.abs(a) >= 0.9999
+    print(f"| starts | first action {j} | episodes | score rate |\n| --- | --- | --- | --- |")
+    for side, m in [(f"x < {split_x}", x < split_x), (f"x >= {split_x}", x >= split_x)]:
+        for label, k in [("at -1 or +1", bound), ("inside", ~bound)]:
+            n = (m & k).sum()
+            rate = f"{scored[m & k].mean():.3f}" if n else "-"
+            print(f"| {side} | {label} | {n} | {rate} |")
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("runs", nargs="+", help="run directories with test/trajectories.bin, same test starts")
@@ -54,6 +69,10 @@ def main():
                    help="each run's directory of the episodes (e.g. evaluate-last-on-reference)")
     p.add_argument("--first-actions", action="store_true",
                    help="also print how the first run's first actions follow the start x")
+    p.add_argument("--at-bound", type=int, metavar="J",
+                   help="also the score rate by whether the first action J sat at a bound")
+    p.add_argument("--split-x", type=float, default=-0.22,
+                   help="start x (world cm) splitting the starts for --at-bound")
     a = p.parse_args()
     episodes = read_episodes(a.runs[0], a.test)
     x, first = scored_starts(episodes)
@@ -67,6 +86,8 @@ def main():
             print(f"| {edges[b]:.2f} to {edges[b + 1]:.2f} | {m.sum()} | {first[m].mean():.2f} |")
     if a.first_actions:
         first_actions(episodes, x)
+    if a.at_bound is not None:
+        at_bound(episodes, x, first, a.at_bound, a.split_x)
     print("| run | score rate | P(scores where the first scores) | P(scores where it does not) |")
     print("| --- | --- | --- | --- |")
     for run in a.runs[1:]:
