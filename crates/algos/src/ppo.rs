@@ -913,99 +913,16 @@ mod tests {
         assert!(e.contains("log_std_init"), "{e}");
     }
 
-    /// One explored step of `ppo` on two envs at made-up observation `k` (env 0 ending its
-    /// episode where `done`), its actions.
-    fn explore_step(ppo: &mut Ppo, k: usize, done: bool) -> Vec<f32> {
-        let obs: Vec<f32> = (0..6).map(|i| ((k * 6 + i) as f32 * 0.37).sin()).collect();
-        let actions = ppo.act(&obs, ActMode::Explore);
-        ppo.observe(&Experience {
-            obs: &obs,
-            actions: &actions,
-            rewards: &[0.0, 0.0],
-            next_obs: &obs,
-            final_obs: vec![None, None],
-            terminated: &[done, false],
-            truncated: &[false, false],
-            absorbing: vec![false, false],
-        });
-        actions
-    }
-
     #[test]
     fn correlated_noise_holds_deviations_restarts_with_episodes_and_resumes() {
-        let c = PpoConfig {
-            noise_correlation: 0.95,
-            log_std_init: -3.0,
-            ..PpoConfig::default()
-        };
-        let mut ppo = Ppo::new(3, 2, c.clone(), 5, &device());
-        let mut white = Ppo::new(
-            3,
-            2,
-            PpoConfig {
+        crate::test_support::correlated_exploration_holds_restarts_and_resumes(|rho| {
+            let c = PpoConfig {
+                noise_correlation: rho,
                 log_std_init: -3.0,
                 ..PpoConfig::default()
-            },
-            5,
-            &device(),
-        );
-        // The first step is the same draw; later ones move by far less than white noise.
-        let (a0, w0) = (
-            explore_step(&mut ppo, 0, false),
-            explore_step(&mut white, 0, false),
-        );
-        assert_eq!(a0, w0);
-        let steps = |p: &mut Ppo| -> f32 {
-            let mut prev = explore_step(p, 0, false);
-            let mut moved = 0.0;
-            for _ in 1..200 {
-                let a = explore_step(p, 0, false);
-                moved += (a[0] - prev[0]).abs();
-                prev = a;
-            }
-            moved
-        };
-        let (held, jumpy) = (steps(&mut ppo), steps(&mut white));
-        assert!(held < 0.5 * jumpy, "held {held}, white {jumpy}");
-        // A snapshot mid-episode carries the process: the same next actions after a load.
-        let path = std::env::temp_dir().join(format!("ppo-noise-{}.bin", std::process::id()));
-        let mut written = Snapshot::new();
-        ppo.save_state(&mut written);
-        written.write(&path).unwrap();
-        let snap = Snapshot::read(&path).unwrap();
-        std::fs::remove_file(&path).unwrap();
-        let mut resumed = Ppo::new(3, 2, c.clone(), 5, &device());
-        resumed.load_state(&snap).unwrap();
-        for k in 0..3 {
-            assert_eq!(
-                explore_step(&mut ppo, k, k == 1),
-                explore_step(&mut resumed, k, k == 1)
-            );
-        }
-        // Env 0 ended its episode at k = 1: its next noise is a fresh draw, env 1's is not.
-        let mut restarted = Ppo::new(3, 2, c, 5, &device());
-        restarted.load_state(&snap).unwrap();
-        let mut check = Ppo::new(
-            3,
-            2,
-            PpoConfig {
-                log_std_init: -3.0,
-                ..PpoConfig::default()
-            },
-            5,
-            &device(),
-        );
-        check.load_state(&snap).unwrap();
-        for k in 0..2 {
-            explore_step(&mut restarted, k, k == 1);
-            explore_step(&mut check, k, k == 1);
-        }
-        let (r, w) = (
-            explore_step(&mut restarted, 2, false),
-            explore_step(&mut check, 2, false),
-        );
-        assert_eq!(r[..2], w[..2], "env 0 restarts from the fresh draw");
-        assert_ne!(r[2..], w[2..], "env 1 goes on with its process");
+            };
+            Ppo::new(3, 2, c, 5, &device())
+        });
         let bad = PpoConfig {
             noise_correlation: 1.0,
             ..PpoConfig::default()

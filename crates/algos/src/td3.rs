@@ -557,8 +557,6 @@ mod tests {
         });
     }
 
-    use crate::Agent;
-
     /// A TD3 agent on 2 envs (3 -> 2) that acts from its first step, exploration noise 0.2
     /// of step correlation `rho`, gradient steps far away.
     fn exploring(rho: f32) -> Td3Agent {
@@ -572,63 +570,9 @@ mod tests {
         Td3::agent(3, 2, c, 4, &device())
     }
 
-    /// One explored step at a fixed observation, env 0's episode ending where `done`.
-    fn explore_step(agent: &mut Td3Agent, done: bool) -> Vec<f32> {
-        let obs = [0.1, -0.4, 0.7, 0.2, 0.0, -0.3];
-        let actions = agent.act(&obs, ActMode::Explore);
-        agent.observe(&crate::Experience {
-            obs: &obs,
-            actions: &actions,
-            rewards: &[0.0, 0.0],
-            next_obs: &obs,
-            final_obs: vec![None, None],
-            terminated: &[done, false],
-            truncated: &[false, false],
-            absorbing: vec![false, false],
-        });
-        actions
-    }
-
     #[test]
     fn correlated_action_noise_holds_deviations_restarts_with_episodes_and_resumes() {
-        let moved = |agent: &mut Td3Agent| -> f32 {
-            let mut prev = explore_step(agent, false);
-            (0..200)
-                .map(|_| {
-                    let a = explore_step(agent, false);
-                    let d = (a[0] - prev[0]).abs();
-                    prev = a;
-                    d
-                })
-                .sum()
-        };
-        let (mut held, mut white) = (exploring(0.95), exploring(0.0));
-        let (h, w) = (moved(&mut held), moved(&mut white));
-        assert!(h < 0.5 * w, "held {h}, white {w}");
-        // Mid-episode through a snapshot file: the same actions after a load, and env 0
-        // restarts from its fresh draw after its episode ends (as white noise draws it).
-        let path = std::env::temp_dir().join(format!("td3-noise-{}.bin", std::process::id()));
-        let mut written = Snapshot::new();
-        held.save_state(&mut written);
-        written.write(&path).unwrap();
-        let snap = Snapshot::read(&path).unwrap();
-        std::fs::remove_file(&path).unwrap();
-        let (mut resumed, mut fresh) = (exploring(0.95), exploring(0.0));
-        resumed.load_state(&snap).unwrap();
-        fresh.load_state(&snap).unwrap();
-        for done in [false, true] {
-            assert_eq!(
-                explore_step(&mut held, done),
-                explore_step(&mut resumed, done)
-            );
-            explore_step(&mut fresh, done);
-        }
-        let (r, f) = (
-            explore_step(&mut resumed, false),
-            explore_step(&mut fresh, false),
-        );
-        assert_eq!(r[..2], f[..2], "env 0 restarts from the fresh draw");
-        assert_ne!(r[2..], f[2..], "env 1 goes on with its process");
+        crate::test_support::correlated_exploration_holds_restarts_and_resumes(exploring);
         let bad = Td3Config {
             action_noise_correlation: -0.1,
             ..Td3Config::default()

@@ -220,3 +220,75 @@ impl Agent for Recorder {
         Ok(episodes.iter().map(|e| e.rewards.len()).sum())
     }
 }
+
+/// One explored step of `agent` on two envs (3 observation values each, fixed), env 0's
+/// episode ending where `done`: its actions.
+fn explore_step(agent: &mut impl Agent, done: bool) -> Vec<f32> {
+    let obs = [0.1, -0.4, 0.7, 0.2, 0.0, -0.3];
+    let actions = agent.act(&obs, ActMode::Explore);
+    agent.observe(&Experience {
+        obs: &obs,
+        actions: &actions,
+        rewards: &[0.0, 0.0],
+        next_obs: &obs,
+        final_obs: vec![None, None],
+        terminated: &[done, false],
+        truncated: &[false, false],
+        absorbing: vec![false, false],
+    });
+    actions
+}
+
+/// Exploration noise correlated over steps, on agents `make(rho)` (3 -> 2 on two envs,
+/// acting by their policy from the first step, the same networks and seed for every
+/// `rho`): the first explored actions are white noise's (`rho` 0); with `rho` 0.95 the
+/// first action moves step to step by less than half as much as with white noise; a
+/// snapshot file taken mid-episode gives the same next actions after a load; once env
+/// 0's episode ends its noise restarts from the fresh draw (as white noise draws it)
+/// while env 1's goes on.
+pub fn correlated_exploration_holds_restarts_and_resumes<A: Agent>(make: impl Fn(f32) -> A) {
+    let (mut held, mut white) = (make(0.95), make(0.0));
+    assert_eq!(
+        explore_step(&mut held, false),
+        explore_step(&mut white, false)
+    );
+    let travel = |agent: &mut A| -> f32 {
+        let mut prev = explore_step(agent, false);
+        (0..200)
+            .map(|_| {
+                let a = explore_step(agent, false);
+                let d = (a[0] - prev[0]).abs();
+                prev = a;
+                d
+            })
+            .sum()
+    };
+    let (h, w) = (travel(&mut held), travel(&mut white));
+    assert!(h < 0.5 * w, "held {h}, white {w}");
+    let path = std::env::temp_dir().join(format!(
+        "correlated-noise-{}-{:?}.bin",
+        std::process::id(),
+        std::thread::current().id()
+    ));
+    let mut written = Snapshot::new();
+    held.save_state(&mut written);
+    written.write(&path).unwrap();
+    let snap = Snapshot::read(&path).unwrap();
+    std::fs::remove_file(&path).unwrap();
+    let (mut resumed, mut fresh) = (make(0.95), make(0.0));
+    resumed.load_state(&snap).unwrap();
+    fresh.load_state(&snap).unwrap();
+    for done in [false, true] {
+        assert_eq!(
+            explore_step(&mut held, done),
+            explore_step(&mut resumed, done)
+        );
+        explore_step(&mut fresh, done);
+    }
+    let (r, f) = (
+        explore_step(&mut resumed, false),
+        explore_step(&mut fresh, false),
+    );
+    assert_eq!(r[..2], f[..2], "env 0 restarts from the fresh draw");
+    assert_ne!(r[2..], f[2..], "env 1 goes on with its process");
+}
