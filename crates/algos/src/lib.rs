@@ -5,8 +5,9 @@
 //! TD3's minibatches (`demonstrations`), running normalisation of observations and rewards
 //! around any learner (`normalize`, SB3's `VecNormalize`), Fourier features of the
 //! observation around any learner (`fourier`), exploration noise correlated over an
-//! episode's steps (`correlated_noise`, PPO's `noise_correlation`), and the [`Agent`] shape through which one
-//! training loop drives all three.
+//! episode's steps (`correlated_noise`: PPO's `noise_correlation`, TD3's
+//! `action_noise_correlation`), and the [`Agent`] shape through which one training loop
+//! drives all three.
 //!
 //! Each algorithm file states its update equations at the top (CleanRL style); the
 //! networks and Adam live in `foosball-nets`, the environments in `foosball-env`.
