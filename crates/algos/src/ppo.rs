@@ -668,14 +668,14 @@ mod tests {
     ) -> ActorCritic {
         let dev = device();
         let obs = matrix(&mb.obs, o, &dev);
-        let (log_prob, entropy) = m.policy.evaluate(obs.clone(), matrix(&mb.actions, a, &dev));
-        let values = m.value.forward(obs.clone());
+        let (log_prob, entropy, mean) =
+            m.policy.evaluate(obs.clone(), matrix(&mb.actions, a, &dev));
+        let values = m.value.forward(obs);
         let ratio = (log_prob - vector(&mb.old_log_probs, &dev)).exp();
         let adv = vector(&mb.advantages, &dev);
         let clipped = adv.clone() * ratio.clone().clamp(1.0 - c.clip_range, 1.0 + c.clip_range);
         let policy_loss = (adv * ratio).min_pair(clipped).mean().neg();
         let value_loss = (vector(&mb.returns, &dev) - values).square().mean();
-        let (mean, _) = m.policy.distribution(obs);
         let b = c.bounds_soft_bound;
         let past = mean.clone().sub_scalar(b).clamp_min(0.0) + mean.add_scalar(b).clamp_max(0.0);
         let bounds = past

@@ -11,7 +11,7 @@ use crate::network_path::HoldsModules;
 use crate::rows::{DeviceRows, HostRows, Matrix, Rows};
 use crate::tensors::{host, matrix};
 use burn::module::Module;
-use foosball_nets::distributions::{diag_gaussian_entropy, diag_gaussian_log_prob};
+use foosball_nets::distributions::diag_gaussian_log_prob;
 use foosball_nets::{
     Adam, Device, GaussianPolicy, HostGaussianPolicy, HostMlp, MlpTape, StepReport, Tensor,
     ValueCritic,
@@ -132,10 +132,10 @@ impl PpoNetworks for BurnNetworks {
 
     fn evaluate(&mut self, obs: &Tensor<2>, actions: &Tensor<2>) -> Evaluation<Tensor<1>> {
         let obs = obs.clone().autodiff();
-        let (mean, log_std) = self.model.policy.distribution(obs.clone());
-        let log_prob =
-            diag_gaussian_log_prob(mean.clone(), log_std.clone(), actions.clone().autodiff());
-        let entropy = diag_gaussian_entropy(log_std);
+        let (log_prob, entropy, mean) = self
+            .model
+            .policy
+            .evaluate(obs.clone(), actions.clone().autodiff());
         let values = self.model.value.forward(obs);
         let out = Evaluation {
             log_prob: log_prob.clone().inner(),

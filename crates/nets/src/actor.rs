@@ -184,10 +184,15 @@ impl GaussianPolicy {
         Ok(self)
     }
 
-    /// `(log pi(actions|obs), entropy)`, each `[batch]`.
-    pub fn evaluate(&self, obs: Tensor<2>, actions: Tensor<2>) -> (Tensor<1>, Tensor<1>) {
+    /// `(log pi(actions|obs), entropy)`, each `[batch]`, and the means `[batch,
+    /// action_dim]` they were computed from.
+    pub fn evaluate(
+        &self,
+        obs: Tensor<2>,
+        actions: Tensor<2>,
+    ) -> (Tensor<1>, Tensor<1>, Tensor<2>) {
         let (mean, log_std) = self.distribution(obs);
-        let log_prob = diag_gaussian_log_prob(mean, log_std.clone(), actions);
-        (log_prob, diag_gaussian_entropy(log_std))
+        let log_prob = diag_gaussian_log_prob(mean.clone(), log_std.clone(), actions);
+        (log_prob, diag_gaussian_entropy(log_std), mean)
     }
 }
