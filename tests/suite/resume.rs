@@ -136,6 +136,14 @@ fn a_normalised_ppo_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_
     stopped_mid_epoch_and_resumed("ppo", "[normalize]\n", Some(Backend::Host));
 }
 
+/// PPO's self-imitation (its kept rows, the episodes being played, its draws) is part of
+/// the checkpoint.
+#[test]
+fn a_self_imitating_ppo_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_one() {
+    let sil = "[ppo.self_imitation]\ncoef = 1.0\nbatch_size = 16\ncapacity = 64\nupdates = 2\n";
+    stopped_mid_epoch_and_resumed("ppo", sil, Some(Backend::Host));
+}
+
 #[test]
 fn a_sac_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_one() {
     stopped_mid_epoch_and_resumed("sac", "", None);

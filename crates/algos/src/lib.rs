@@ -6,7 +6,8 @@
 //! around any learner (`normalize`, SB3's `VecNormalize`), Fourier features of the
 //! observation around any learner (`fourier`), exploration noise correlated over an
 //! episode's steps (`correlated_noise`: PPO's `noise_correlation`, TD3's
-//! `action_noise_correlation`), and the [`Agent`] shape through which one training loop
+//! `action_noise_correlation`), PPO's self-imitation of its own past episodes
+//! (`self_imitation`), and the [`Agent`] shape through which one training loop
 //! drives all three.
 //!
 //! Each algorithm file states its update equations at the top (CleanRL style); the
@@ -31,6 +32,7 @@ pub mod rows;
 pub mod sac;
 pub mod sac_networks;
 pub mod schedule;
+pub mod self_imitation;
 pub mod td3;
 pub mod td3_networks;
 pub mod tensors;

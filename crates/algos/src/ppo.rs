@@ -12,6 +12,8 @@
 //! bound explores nothing on that action.
 //! Exploring actions are `mean + exp(log_std) x` with `x` standard normal, drawn anew
 //! each step (SB3) or an AR(1) process over the episode (`noise_correlation`).
+//! Under `[ppo.self_imitation]` each rollout's update is followed by self-imitation steps
+//! on the learner's own past episodes ([`crate::self_imitation`]).
 //!
 //! The minibatch step computes the loss's gradients with respect to the networks'
 //! outputs (`dL/d log pi = ratio dL/d ratio` with `dL/d ratio = -A / n` where the
@@ -29,6 +31,7 @@ use crate::ppo_networks::{BurnNetworks, Evaluation, HostNetworks, PpoNetworks};
 use crate::rollout_buffer::{RolloutBuffer, gae};
 use crate::rows::Rows;
 use crate::schedule::LrSchedule;
+use crate::self_imitation::{self, SelfImitation, SelfImitationConfig};
 use crate::tensors::standard_normal;
 use foosball_nets::store::{load_module, save_module};
 use foosball_nets::{
@@ -77,6 +80,8 @@ pub struct PpoConfig {
     pub bounds_loss_coef: f32,
     /// Where the bound loss starts, `|mean|` past it (rl_games' 1.1).
     pub bounds_soft_bound: f32,
+    /// Self-imitation of past episodes after each update (Oh et al. 2018; off by default).
+    pub self_imitation: SelfImitationConfig,
 }
 
 impl Default for PpoConfig {
@@ -107,6 +112,7 @@ impl Default for PpoConfig {
             noise_correlation: 0.0,
             bounds_loss_coef: 0.0,
             bounds_soft_bound: 1.1,
+            self_imitation: SelfImitationConfig::default(),
         }
     }
 }
@@ -160,7 +166,10 @@ impl PpoConfig {
             self.bounds_soft_bound.is_finite() && self.bounds_soft_bound >= 0.0,
             "bounds_soft_bound",
             "must be finite and >= 0",
-        )
+        )?;
+        self.self_imitation
+            .validate()
+            .map_err(|e| e.under("self_imitation"))
     }
 }
 
@@ -256,6 +265,7 @@ pub struct Ppo {
     pending: Option<Pending>,
     episode_starts: Vec<f32>,
     noise: CorrelatedNoise,
+    self_imitation: Option<SelfImitation>,
     last_obs: Vec<f32>,
     last_dones: Vec<f32>,
     env_steps: u64,
@@ -329,6 +339,43 @@ fn minibatch_step<N: PpoNetworks>(
     Some(Metrics(metrics))
 }
 
+/// One self-imitation step on kept rows ([`crate::self_imitation`]'s loss) on either
+/// path: `dL/d log pi = -coef (R - V)_+ / n`, `dL/dV = -value_coef (R - V)_+ / n`. No step
+/// where no row's return beats its value (Adam's momentum alone would still move the
+/// networks).
+fn self_imitation_step<N: PpoNetworks>(
+    nets: &mut N,
+    c: &SelfImitationConfig,
+    (o, a): (usize, usize),
+    rows: &self_imitation::Batch,
+    lr: f64,
+) -> Metrics {
+    let r = nets.rows();
+    let per_row = 1.0 / rows.returns.len() as f32;
+    let (obs, actions) = (r.matrix(&rows.obs, o), r.matrix(&rows.actions, a));
+    let Evaluation {
+        entropy, values, ..
+    } = nets.evaluate(&obs, &actions);
+    let gap = r.max_scalar(&r.sub(&r.vector(&rows.returns), &values), 0.0);
+    let mean_gap = r.scalar(&r.mean(&gap));
+    let below = r.mean(&r.le(&gap, &r.vector(&[0.0])));
+    let mut metrics = vec![
+        ("self_imitation_gap", mean_gap.clone()),
+        (
+            "self_imitation_positive",
+            r.scalar(&r.affine(&below, -1.0, 1.0)),
+        ),
+    ];
+    if mean_gap.read() > 0.0 {
+        let d_log_prob = r.affine(&gap, -c.coef * per_row, 0.0);
+        let d_values = r.affine(&gap, -c.value_coef * per_row, 0.0);
+        let no_entropy = r.affine(&entropy, 0.0, 0.0);
+        let report = nets.step(&d_log_prob, &no_entropy, &d_values, None, lr);
+        metrics.push(("self_imitation_grad_norm", report.grad_norm));
+    }
+    Metrics(metrics)
+}
+
 impl Ppo {
     /// Networks drawn from `seed` in a fixed order (policy, value) on `device` (an
     /// autodiff device).
@@ -359,6 +406,10 @@ impl Ppo {
             pending: None,
             episode_starts: Vec::new(),
             noise: CorrelatedNoise::new(config.noise_correlation),
+            self_imitation: config.self_imitation.enabled().then(|| {
+                let sil = config.self_imitation.clone();
+                SelfImitation::new(sil, config.gamma, (obs_dim, action_dim), seed)
+            }),
             last_obs: Vec::new(),
             last_dones: Vec::new(),
             env_steps: 0,
@@ -446,6 +497,21 @@ impl Ppo {
             "explained_variance",
             explained_variance(&self.rollout.values, &returns).into(),
         ));
+        if let Some(sil) = &mut self.self_imitation {
+            let mut steps = Vec::new();
+            for _ in 0..c.self_imitation.updates {
+                let Some(rows) = sil.sample() else { break };
+                let sc = &c.self_imitation;
+                steps.push(match &mut self.networks {
+                    OnPath::Burn(burn) => self_imitation_step(burn.as_mut(), sc, (o, a), &rows, lr),
+                    OnPath::Host(host) => self_imitation_step(host.as_mut(), sc, (o, a), &rows, lr),
+                });
+            }
+            metrics.0.extend(Metrics::mean(steps).0);
+            metrics
+                .0
+                .push(("self_imitation_rows", (sil.len() as f64).into()));
+        }
         self.rollout.clear();
         metrics
     }
@@ -553,6 +619,14 @@ impl Agent for Ppo {
                 }
             })
             .collect();
+        if let Some(sil) = &mut self.self_imitation {
+            sil.record(
+                step.obs,
+                &pending.actions,
+                (&rewards, &pending.values),
+                &dones,
+            );
+        }
         self.episode_starts = dones.clone();
         self.last_dones = dones;
         self.last_obs = step.next_obs.to_vec();
@@ -607,6 +681,9 @@ impl Agent for Ppo {
         snap.put_f32("ppo.last_obs", &self.last_obs[..]);
         snap.put_f32("ppo.last_dones", &self.last_dones[..]);
         self.noise.save_state(snap, "ppo.noise");
+        if let Some(sil) = &self.self_imitation {
+            sil.save_state(snap, "ppo.self_imitation");
+        }
     }
 
     fn load_state(&mut self, snap: &Snapshot<'_>) -> Result<(), SnapshotError> {
@@ -623,6 +700,9 @@ impl Agent for Ppo {
         self.last_obs = snap.f32s("ppo.last_obs")?.to_vec();
         self.last_dones = snap.f32s("ppo.last_dones")?.to_vec();
         self.noise.load_state(snap, "ppo.noise")?;
+        if let Some(sil) = &mut self.self_imitation {
+            sil.load_state(snap, "ppo.self_imitation")?;
+        }
         self.pending = None;
         Ok(())
     }
@@ -737,6 +817,86 @@ mod tests {
         }
     }
 
+    /// One self-imitation step as the paper writes its loss, gradients by Burn's autodiff
+    /// through the whole loss, on `m` with `c`'s Adam.
+    fn reference_self_imitation_step(
+        mut m: ActorCritic,
+        c: &PpoConfig,
+        (o, a): (usize, usize),
+        rows: &self_imitation::Batch,
+    ) -> ActorCritic {
+        let dev = device();
+        let obs = matrix(&rows.obs, o, &dev);
+        let (log_prob, _, _) = m
+            .policy
+            .evaluate(obs.clone(), matrix(&rows.actions, a, &dev));
+        let gap = (vector(&rows.returns, &dev) - m.value.forward(obs)).clamp_min(0.0);
+        let s = &c.self_imitation;
+        let loss = (gap.clone().detach() * log_prob)
+            .mean()
+            .neg()
+            .mul_scalar(s.coef)
+            + gap.square().mean().mul_scalar(0.5 * s.value_coef);
+        let mut adam = Adam::new(c.net.adam.clone());
+        adam.step_in_place(&mut m, &mut loss.backward(), 10.0);
+        m
+    }
+
+    #[test]
+    fn the_self_imitation_step_is_the_gradient_of_its_loss_on_both_paths() {
+        let mut c = PpoConfig::default();
+        gradient_revealing(&mut c.net);
+        c.self_imitation = SelfImitationConfig {
+            coef: 0.7,
+            value_coef: 0.3,
+            ..SelfImitationConfig::default()
+        };
+        let (o, a) = (38, 8);
+        let mb = minibatch(64, (o, a), 9);
+        let rows = self_imitation::Batch {
+            obs: mb.obs,
+            actions: mb.actions,
+            returns: mb.returns,
+        };
+        let start = Ppo::new(o, a, c.clone(), 3, &device()).model();
+        let expected = flat(&reference_self_imitation_step(
+            start.clone(),
+            &c,
+            (o, a),
+            &rows,
+        ));
+        let adam = || Adam::new(c.net.adam.clone());
+        let mut burn = BurnNetworks::new(start.clone(), adam(), &device(), o);
+        let mut host = HostNetworks::from_modules(start.clone(), adam()).unwrap();
+        let sc = &c.self_imitation;
+        let (mb, mh) = (
+            self_imitation_step(&mut burn, sc, (o, a), &rows, 10.0).read(),
+            self_imitation_step(&mut host, sc, (o, a), &rows, 10.0).read(),
+        );
+        for (label, after) in [("burn", burn.modules()), ("host", host.modules())] {
+            let gap = change_gap(&flat(&start), &flat(&after), &expected);
+            assert!(gap < 1e-4, "{label}: {gap} of the step's size");
+        }
+        let positive = mh.iter().find(|(n, _)| *n == "self_imitation_positive");
+        let share = positive.unwrap().1;
+        assert!(share > 0.2 && share < 0.8, "{share}");
+        for ((name, b), (_, h)) in mb.into_iter().zip(mh) {
+            assert!(
+                (b - h).abs() <= 1e-4 * b.abs().max(1.0),
+                "{name} {b} vs {h}"
+            );
+        }
+        // Rows that all earned less than their value: no step at all.
+        let low = self_imitation::Batch {
+            returns: vec![-1e6; 64],
+            ..rows
+        };
+        let before = flat(&host.modules());
+        let m = self_imitation_step(&mut host, sc, (o, a), &low, 10.0).read();
+        assert!(m.iter().all(|(n, _)| *n != "self_imitation_grad_norm"));
+        assert_eq!(flat(&host.modules()), before);
+    }
+
     #[test]
     fn the_bound_loss_reaches_only_means_past_the_bound() {
         // Two rows of two means, bound 1, weight 0.5: (1.5, -0.2) and (-3, 1).
@@ -789,17 +949,29 @@ mod tests {
     /// A 3 -> 2 PPO learner (2 envs, 16-step rollouts, minibatches of 8) driven through
     /// `rounds` rollouts on made-up observations and rewards.
     fn driven(host_path: bool, rounds: usize) -> Ppo {
-        let c = PpoConfig {
+        drive(small(), host_path, rounds).0
+    }
+
+    /// 16-step rollouts on 2 envs, minibatches of 8, 2 epochs.
+    fn small() -> PpoConfig {
+        PpoConfig {
             n_steps: 16,
             batch_size: 8,
             n_epochs: 2,
             ..PpoConfig::default()
-        };
+        }
+    }
+
+    /// A 3 -> 2 learner of settings `c` driven through `rounds` rollouts on made-up
+    /// observations and rewards (env 0's episodes 11 steps long), and each update's
+    /// metrics.
+    fn drive(c: PpoConfig, host_path: bool, rounds: usize) -> (Ppo, Vec<Vec<(&'static str, f64)>>) {
         let mut ppo = Ppo::new(3, 2, c, 7, &device());
         if host_path {
             ppo.on_host_path().unwrap();
         }
         let mut k = 0;
+        let mut updates = Vec::new();
         for _ in 0..rounds {
             loop {
                 let obs: Vec<f32> = (0..6).map(|i| ((k * 6 + i) as f32 * 0.37).sin()).collect();
@@ -818,12 +990,52 @@ mod tests {
                     absorbing: vec![false, false],
                 });
                 k += 1;
-                if ppo.update(1.0).is_some() {
+                if let Some(m) = ppo.update(1.0) {
+                    updates.push(m.read());
                     break;
                 }
             }
         }
-        ppo
+        (ppo, updates)
+    }
+
+    /// With self-imitation on, env 0's finished episodes fill the buffer and, once it
+    /// holds a minibatch, every update takes its steps on it (the policy then differs
+    /// from PPO's alone); off, nothing of it runs.
+    #[test]
+    fn self_imitation_steps_follow_each_update_once_episodes_are_kept() {
+        let mut c = small();
+        c.self_imitation = SelfImitationConfig {
+            coef: 1.0,
+            updates: 3,
+            batch_size: 2,
+            capacity: 40,
+            ..SelfImitationConfig::default()
+        };
+        let (with, updates) = drive(c, true, 4);
+        let value =
+            |m: &[(&str, f64)], name: &str| m.iter().find(|(n, _)| *n == name).map(|(_, v)| *v);
+        let rows: Vec<f64> = updates
+            .iter()
+            .map(|m| value(m, "self_imitation_rows").unwrap())
+            .collect();
+        assert!(
+            rows[rows.len() - 1] >= 2.0 && rows.iter().all(|&r| r <= 40.0),
+            "{rows:?}"
+        );
+        assert!(rows.windows(2).all(|w| w[0] <= w[1]), "{rows:?}");
+        let last = updates.last().unwrap();
+        assert!(
+            value(last, "self_imitation_grad_norm").is_some(),
+            "{last:?}"
+        );
+        let (without, plain) = drive(small(), true, 4);
+        assert!(
+            plain
+                .iter()
+                .all(|m| value(m, "self_imitation_rows").is_none())
+        );
+        assert_ne!(flat(&with.model()), flat(&without.model()));
     }
 
     #[test]
