@@ -32,7 +32,7 @@ use crate::rollout_buffer::{RolloutBuffer, gae};
 use crate::rows::Rows;
 use crate::schedule::LrSchedule;
 use crate::self_imitation::{self, SelfImitation, SelfImitationConfig};
-use crate::tensors::standard_normal;
+use crate::tensors::{gather_rows, standard_normal};
 use foosball_nets::store::{load_module, save_module};
 use foosball_nets::{
     Activation, Adam, AdamConfig, CnnConfig, Device, GaussianPolicy, ObsShape, Snapshot,
@@ -465,12 +465,7 @@ impl Ppo {
         'epochs: for _ in 0..c.n_epochs {
             indices.shuffle(&mut self.rng);
             for chunk in indices.chunks(c.batch_size) {
-                let gather = |src: &[f32], w: usize| -> Vec<f32> {
-                    chunk
-                        .iter()
-                        .flat_map(|&i| src[i * w..(i + 1) * w].iter().copied())
-                        .collect()
-                };
+                let gather = |src: &[f32], w: usize| gather_rows(src, w, chunk);
                 let r = &self.rollout;
                 let mut mb = Minibatch {
                     obs: gather(&r.obs, o),
@@ -498,10 +493,9 @@ impl Ppo {
             explained_variance(&self.rollout.values, &returns).into(),
         ));
         if let Some(sil) = &mut self.self_imitation {
+            let sc = &c.self_imitation;
             let mut steps = Vec::new();
-            for _ in 0..c.self_imitation.updates {
-                let Some(rows) = sil.sample() else { break };
-                let sc = &c.self_imitation;
+            for rows in sil.sample(sc.updates) {
                 steps.push(match &mut self.networks {
                     OnPath::Burn(burn) => self_imitation_step(burn.as_mut(), sc, (o, a), &rows, lr),
                     OnPath::Host(host) => self_imitation_step(host.as_mut(), sc, (o, a), &rows, lr),
@@ -772,6 +766,26 @@ mod tests {
         m
     }
 
+    /// Both paths took the step `expected` from `start` (within 1e-4 of its size) and
+    /// report the same metrics.
+    fn assert_paths_agree(
+        start: &ActorCritic,
+        expected: &[f32],
+        (burn, host): (ActorCritic, ActorCritic),
+        (mb, mh): (Metrics, Metrics),
+    ) {
+        for (label, after) in [("burn", burn), ("host", host)] {
+            let gap = change_gap(&flat(start), &flat(&after), expected);
+            assert!(gap < 1e-4, "{label}: {gap} of the step's size");
+        }
+        for ((name, b), (_, h)) in mb.read().into_iter().zip(mh.read()) {
+            assert!(
+                (b - h).abs() <= 1e-4 * b.abs().max(1.0),
+                "{name} {b} vs {h}"
+            );
+        }
+    }
+
     fn check_against_autodiff(mut c: PpoConfig, (o, a): (usize, usize), hidden: Vec<usize>) {
         gradient_revealing(&mut c.net);
         c.net.hidden = hidden;
@@ -784,17 +798,8 @@ mod tests {
         let mut host = HostNetworks::from_modules(start.clone(), adam()).unwrap();
         let mb_burn = minibatch_step(&mut burn, &c, (o, a), &mb, 10.0).unwrap();
         let mb_host = minibatch_step(&mut host, &c, (o, a), &mb, 10.0).unwrap();
-        for (label, after) in [("burn", burn.modules()), ("host", host.modules())] {
-            let gap = change_gap(&flat(&start), &flat(&after), &expected);
-            assert!(gap < 1e-4, "{label}: {gap} of the step's size");
-        }
-        for ((name, b), (_, h)) in mb_burn.0.into_iter().zip(mb_host.0) {
-            let (b, h) = (b.read(), h.read());
-            assert!(
-                (b - h).abs() <= 1e-4 * b.abs().max(1.0),
-                "{name} {b} vs {h}"
-            );
-        }
+        let after = (burn.modules(), host.modules());
+        assert_paths_agree(&start, &expected, after, (mb_burn, mb_host));
     }
 
     #[test]
@@ -870,22 +875,18 @@ mod tests {
         let mut host = HostNetworks::from_modules(start.clone(), adam()).unwrap();
         let sc = &c.self_imitation;
         let (mb, mh) = (
-            self_imitation_step(&mut burn, sc, (o, a), &rows, 10.0).read(),
-            self_imitation_step(&mut host, sc, (o, a), &rows, 10.0).read(),
+            self_imitation_step(&mut burn, sc, (o, a), &rows, 10.0),
+            self_imitation_step(&mut host, sc, (o, a), &rows, 10.0),
         );
-        for (label, after) in [("burn", burn.modules()), ("host", host.modules())] {
-            let gap = change_gap(&flat(&start), &flat(&after), &expected);
-            assert!(gap < 1e-4, "{label}: {gap} of the step's size");
-        }
-        let positive = mh.iter().find(|(n, _)| *n == "self_imitation_positive");
-        let share = positive.unwrap().1;
+        let positive = mh.clone().read();
+        let share = positive
+            .iter()
+            .find(|(n, _)| *n == "self_imitation_positive")
+            .unwrap()
+            .1;
         assert!(share > 0.2 && share < 0.8, "{share}");
-        for ((name, b), (_, h)) in mb.into_iter().zip(mh) {
-            assert!(
-                (b - h).abs() <= 1e-4 * b.abs().max(1.0),
-                "{name} {b} vs {h}"
-            );
-        }
+        let after = (burn.modules(), host.modules());
+        assert_paths_agree(&start, &expected, after, (mb, mh));
         // Rows that all earned less than their value: no step at all.
         let low = self_imitation::Batch {
             returns: vec![-1e6; 64],
@@ -946,8 +947,7 @@ mod tests {
         }
     }
 
-    /// A 3 -> 2 PPO learner (2 envs, 16-step rollouts, minibatches of 8) driven through
-    /// `rounds` rollouts on made-up observations and rewards.
+    /// [`drive`] with the [`small`] settings: the learner only.
     fn driven(host_path: bool, rounds: usize) -> Ppo {
         drive(small(), host_path, rounds).0
     }

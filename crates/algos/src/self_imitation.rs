@@ -32,6 +32,7 @@
 //! buffer holds the newest `capacity` rows.
 
 use crate::config::{ConfigError, ensure};
+use crate::tensors::gather_rows;
 use foosball_nets::{Snapshot, SnapshotError};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -230,45 +231,45 @@ impl SelfImitation {
         }
     }
 
-    /// `batch_size` kept rows drawn with replacement by priority; `None` while fewer than
-    /// `batch_size` are kept.
-    pub fn sample(&mut self) -> Option<Batch> {
+    /// `count` minibatches of `batch_size` kept rows, each drawn with replacement by
+    /// priority (the priorities summed once for all of them); none while fewer than
+    /// `batch_size` rows are kept.
+    pub fn sample(&mut self, count: usize) -> Vec<Batch> {
         let (o, a) = self.dims;
         let (len, b) = (self.len(), self.config.batch_size);
         if len < b {
-            return None;
+            return Vec::new();
         }
-        let picks: Vec<usize> = if self.config.priority_exponent == 0.0 {
-            (0..b).map(|_| self.rng.random_range(0..len)).collect()
+        let cumulative: Vec<f64> = if self.config.priority_exponent == 0.0 {
+            Vec::new()
         } else {
-            let cumulative: Vec<f64> = self
-                .priorities
+            self.priorities
                 .iter()
                 .scan(0.0, |sum, &p| {
                     *sum += f64::from(p);
                     Some(*sum)
                 })
-                .collect();
-            let total = cumulative[len - 1];
-            (0..b)
-                .map(|_| {
-                    let u = self.rng.random_range(0.0..total);
-                    cumulative.partition_point(|&c| c <= u).min(len - 1)
-                })
                 .collect()
         };
-        let k = &self.kept;
-        Some(Batch {
-            obs: picks
-                .iter()
-                .flat_map(|&j| k.obs[j * o..(j + 1) * o].iter().copied())
-                .collect(),
-            actions: picks
-                .iter()
-                .flat_map(|&j| k.actions[j * a..(j + 1) * a].iter().copied())
-                .collect(),
-            returns: picks.iter().map(|&j| k.returns[j]).collect(),
-        })
+        (0..count)
+            .map(|_| {
+                let picks: Vec<usize> = (0..b)
+                    .map(|_| match cumulative.last() {
+                        None => self.rng.random_range(0..len),
+                        Some(&total) => {
+                            let u = self.rng.random_range(0.0..total);
+                            cumulative.partition_point(|&c| c <= u).min(len - 1)
+                        }
+                    })
+                    .collect();
+                let k = &self.kept;
+                Batch {
+                    obs: gather_rows(&k.obs, o, &picks),
+                    actions: gather_rows(&k.actions, a, &picks),
+                    returns: gather_rows(&k.returns, 1, &picks),
+                }
+            })
+            .collect()
     }
 
     /// Writes the running episodes, the kept rows and the draw state under `name`.
@@ -384,12 +385,12 @@ mod tests {
     #[test]
     fn a_full_buffer_overwrites_its_oldest_rows() {
         let mut s = SelfImitation::new(config(3, 2), 0.0, (1, 1), 0);
-        assert!(s.sample().is_none());
+        assert!(s.sample(1).is_empty());
         for x in 0..5 {
             s.record(&[x as f32], &[0.0], (&[1.0], &[0.0]), &[1.0]);
         }
         assert_eq!(s.kept.obs, vec![3.0, 4.0, 2.0]);
-        let b = s.sample().unwrap();
+        let b = s.sample(1).remove(0);
         assert_eq!(b.returns.len(), 2);
         assert!(b.obs.iter().all(|x| [2.0, 3.0, 4.0].contains(x)));
     }
@@ -403,9 +404,7 @@ mod tests {
         s.record(&[0.0], &[0.0], (&[1.0], &[0.0]), &[1.0]);
         s.record(&[1.0], &[0.0], (&[10.0], &[1.0]), &[1.0]);
         assert_eq!(s.priorities, vec![1.0, 3.0]);
-        let ones = (0..4000)
-            .filter(|_| s.sample().unwrap().obs[0] == 1.0)
-            .count();
+        let ones = (0..4000).filter(|_| s.sample(1)[0].obs[0] == 1.0).count();
         assert!((ones as f64 / 4000.0 - 0.75).abs() < 0.03, "{ones}");
     }
 
@@ -422,7 +421,7 @@ mod tests {
         for k in 0..7 {
             step(&mut s, k);
         }
-        s.sample();
+        s.sample(1);
         let path = std::env::temp_dir().join(format!("sil-{}.bin", std::process::id()));
         {
             let mut snap = Snapshot::new();
@@ -437,7 +436,7 @@ mod tests {
             step(&mut s, k);
             step(&mut resumed, k);
         }
-        let (a, b) = (s.sample().unwrap(), resumed.sample().unwrap());
+        let (a, b) = (s.sample(1).remove(0), resumed.sample(1).remove(0));
         assert_eq!((a.obs, a.actions, a.returns), (b.obs, b.actions, b.returns));
         assert_eq!(s.running[1].rewards, resumed.running[1].rewards);
     }

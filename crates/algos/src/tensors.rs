@@ -5,6 +5,14 @@ use foosball_nets::{Device, Scalar, Tensor, TensorData};
 use rand::Rng;
 use rand_distr::StandardNormal;
 
+/// The rows `rows` of the row-major `src` (`width` values a row), in that order:
+/// `[rows.len(), width]`.
+pub fn gather_rows(src: &[f32], width: usize, rows: &[usize]) -> Vec<f32> {
+    rows.iter()
+        .flat_map(|&i| src[i * width..(i + 1) * width].iter().copied())
+        .collect()
+}
+
 /// `[data.len() / cols, cols]` tensor on `device`.
 pub fn matrix(data: &[f32], cols: usize, device: &Device) -> Tensor<2> {
     Tensor::from_data(
