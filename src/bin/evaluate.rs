@@ -10,7 +10,7 @@ use foosball_rl::play::contestant::Contestant;
 use foosball_rl::play::matches::{self, Kickoff, MatchRules, Tally, match_table};
 use foosball_rl::play::metrics::wilson_points;
 use foosball_rl::play::player::{Player, PlayerArgs};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 #[global_allocator]
@@ -27,7 +27,8 @@ struct Args {
     #[arg(long)]
     episodes: Option<u32>,
     /// Where to write metrics and trajectories (default `RUN/evaluate-<checkpoint>`, with
-    /// `-stochastic` after it for sampled actions and `-on-<preset>` for another game, or
+    /// `-stochastic` after it for sampled actions and `-on-<preset>` or `-on-<config's
+    /// file stem>` for another game, or
     /// `baselines/<policy>-<preset>` for a policy).
     #[arg(long)]
     out: Option<PathBuf>,
@@ -135,6 +136,8 @@ fn run(args: &Args) -> Result<String, String> {
             }
             if let Some(preset) = args.player.preset {
                 name += &format!("-on-{}", preset.name());
+            } else if let Some(stem) = args.player.config.as_deref().and_then(Path::file_stem) {
+                name += &format!("-on-{}", stem.to_string_lossy());
             }
             dir.join(name)
         }

@@ -38,7 +38,11 @@ pub struct PlayerArgs {
     #[arg(long, conflicts_with = "config")]
     pub preset: Option<Preset>,
     /// With `--policy`: a run configuration whose `[env]` and `protocol.seed` to use.
-    #[arg(long, requires = "policy")]
+    /// With `--run`: a run configuration whose `[env]` to test the run's networks on
+    /// instead of its own, on the run's own test seeds (e.g. a run trained on a
+    /// randomised table tested on the plain one; refused where the networks' observations
+    /// or actions would mean something else there).
+    #[arg(long)]
     pub config: Option<PathBuf>,
     /// With `--policy`: the seed the test seeds derive from (default the config's, or 0).
     #[arg(long, requires = "policy")]
@@ -47,6 +51,36 @@ pub struct PlayerArgs {
     /// `iterations`, ...; default the planner's defaults).
     #[arg(long, requires = "policy")]
     pub planner: Option<PathBuf>,
+}
+
+/// The table `--preset` or `--config` puts a run's networks on instead of their own
+/// (`own`), with the option that named it; `None` without either.
+fn other_table(
+    args: &PlayerArgs,
+    own: &FoosballConfig,
+) -> Result<Option<(String, FoosballConfig)>, String> {
+    Ok(match (args.preset, &args.config) {
+        (Some(preset), _) => Some((
+            format!("--preset {}", preset.name()),
+            FoosballConfig {
+                observation: own.observation,
+                opponent: own.opponent,
+                ..FoosballConfig::preset(preset)
+            },
+        )),
+        (None, Some(path)) => {
+            let option = format!("--config {}", path.display());
+            let env = RunConfig::load(path).map_err(|e| e.to_string())?.env;
+            if env.observation != own.observation {
+                return Err(format!(
+                    "{option}: its env.observation {:?} is not the run's {:?}",
+                    env.observation, own.observation
+                ));
+            }
+            Some((option, env))
+        }
+        (None, None) => None,
+    })
 }
 
 /// What plays: a run's networks or a scripted policy, each on its own table and seeds.
@@ -99,15 +133,9 @@ impl Player {
             }
             (Some(dir), None) => {
                 let mut config = RunConfig::load_run(dir).map_err(|e| e.to_string())?;
-                if let Some(preset) = args.preset {
-                    let table = FoosballConfig {
-                        observation: config.env.observation,
-                        opponent: config.env.opponent,
-                        ..FoosballConfig::preset(preset)
-                    };
-                    means_the_same(&config.env, &table).map_err(|why| {
-                        format!("--preset {}: {}: {why}", preset.name(), dir.display())
-                    })?;
+                if let Some((option, table)) = other_table(args, &config.env)? {
+                    means_the_same(&config.env, &table)
+                        .map_err(|why| format!("{option}: {}: {why}", dir.display()))?;
                     config.env = table;
                 }
                 let checkpoint = args.checkpoint.unwrap_or(Checkpoint::Best);

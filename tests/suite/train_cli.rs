@@ -263,6 +263,20 @@ fn evaluate_reproduces_the_test_of_the_saved_networks() {
         "{e}"
     );
 
+    // A configuration's `[env]` instead of a preset: the run's own gives its own test
+    // back, on the run's test seeds; one whose actions mean something else is refused.
+    let c = config.to_str().unwrap();
+    let o = evaluate(&["--run", r, "--checkpoint", "last", "--config", c]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let own = std::fs::read_to_string(run_dir.join("evaluate-last-on-td3/metrics.json")).unwrap();
+    assert_eq!(own, trained);
+    let linear = dir.join("linear.toml");
+    std::fs::write(&linear, "algo = \"td3\"\n[env]\naction_map = \"linear\"\n").unwrap();
+    let o = evaluate(&["--run", r, "--config", linear.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains("--config") && e.contains("action_map"), "{e}");
+
     let o = evaluate(&["--run", dir.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("not a run directory"));
