@@ -17,7 +17,9 @@ is what SB3 scaled the policy's [-1, 1] onto (a run of `env.action_map = "linear
 action a x range / 20, which MuJoCo's clamp to the range leaves as it is). Starts are the gym's own draw,
 `numpy.random.seed(seed)` before the reset of episode `seed` (0, 1, ...). The metrics are
 the test's five and the episode length, each with its 95 % interval (Wilson for the
-score rate, normal for the means); ends are classified as the gym decides them.
+score rate, normal for the means); ends are classified as the gym decides them. The JSON
+of `--out` also lists each episode's start (the ball's x and y, joint frame, cm), whether
+it scored, its end and its length (`per_episode`).
 """
 import argparse
 import json
@@ -76,6 +78,7 @@ def play(env, act, seed, scale):
     """One episode: its summary (the test's per-episode quantities and its end)."""
     np.random.seed(seed)
     obs, _ = env.reset()
+    start = [float(obs[0]), float(obs[1])]
     total, steps, distances, speeds, scored = 0.0, 0, [], [], False
     while True:
         act.stdin.write(" ".join(f"{v:.7g}" for v in obs) + "\n")
@@ -108,6 +111,7 @@ def play(env, act, seed, scale):
                 "final_distance": distances[-1],
                 "scored": scored,
                 "end": end,
+                "start": start,
             }
 
 
@@ -175,7 +179,9 @@ def main():
     print(table(a.run, theirs, mine))
     if a.out:
         with open(a.out, "w") as f:
-            json.dump({"run": a.run, "checkpoint": a.checkpoint, "mujoco": theirs, "ours": mine}, f, indent=1)
+            per_episode = [{k: e[k] for k in ("start", "scored", "end", "steps")} for e in episodes]
+            json.dump({"run": a.run, "checkpoint": a.checkpoint, "mujoco": theirs, "ours": mine,
+                       "per_episode": per_episode}, f, indent=1)
 
 
 if __name__ == "__main__":
