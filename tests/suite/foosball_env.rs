@@ -539,6 +539,7 @@ fn domain_randomisation_draws_within_its_ranges_per_episode() {
     r.ball_friction_scale = [0.8, 1.2];
     r.ball_restitution_scale = [0.9, 1.1];
     r.servo_gain_scale = [0.7, 1.3];
+    r.men_friction_scale = [0.8, 1.2];
     r.position_noise_std = [0.1, 0.2];
     r.action_latency_steps = [1, 3];
     let mut env = FoosballEnv::new(config).unwrap();
@@ -550,6 +551,7 @@ fn domain_randomisation_draws_within_its_ranges_per_episode() {
         assert!((0.24..=0.36).contains(&d.physics.ball_friction));
         assert!((0.54..=0.66).contains(&d.physics.ball_restitution));
         assert!((0.7..=1.3).contains(&d.physics.servo_gain_scale));
+        assert!((0.8..=1.2).contains(&d.physics.men_friction_scale));
         assert!((0.1..=0.2).contains(&d.position_noise_std));
         assert!((1..=3).contains(&d.action_latency));
         masses.push(d.physics.ball_mass);
@@ -557,6 +559,51 @@ fn domain_randomisation_draws_within_its_ranges_per_episode() {
     masses.sort_by(f32::total_cmp);
     masses.dedup();
     assert_eq!(masses.len(), 20, "each episode draws anew");
+}
+
+/// The start of an episode of the ball-Fourier PPO on the MuJoCo model (its seed 3,
+/// episode 1): the midfield's foot sweeps sideways into the ball on the second step.
+fn sideways_sweep(men_friction: f32) -> ([f32; OBS_DIM], [f32; OBS_DIM]) {
+    let mut config = FoosballConfig::preset(Preset::Reference);
+    config.rules.end_episodes = false;
+    config.randomization.men_friction_scale = [men_friction, men_friction];
+    let mut env = FoosballEnv::new(config).unwrap();
+    let mut obs = [0.0; OBS_DIM];
+    let ball = Some([0.312_172_7, -0.305_878_2]);
+    env.reset_with(Some(3), &ResetOptions { ball }, &mut obs)
+        .unwrap();
+    let start = obs;
+    let actions = [
+        [0.5, 0.0569, 0.3906, 0.125, -0.35, 0.125, 0.6, -0.0004],
+        [0.1997, 0.0795, 0.4189, 0.0846, -0.35, -0.0875, 0.6, 0.0125],
+        [0.3961, 0.0241, 0.3145, -0.0161, -0.35, 0.1009, 0.6, -0.0045],
+    ];
+    for a in &actions {
+        env.step_into(a, &mut obs).unwrap();
+    }
+    (start, obs)
+}
+
+#[test]
+fn the_mens_friction_moves_the_ball_they_sweep_and_a_fixed_value_draws_nothing() {
+    let (start, nominal) = sideways_sweep(1.0);
+    let (start_low, low) = sideways_sweep(0.7);
+    // No draw: the same start, and the rods that never touch the ball move alike (the
+    // midfield's slide, held back by the ball it carries, does not).
+    assert_eq!(start, start_low);
+    for rod in [0, 1, 3] {
+        assert_eq!(nominal[ROD_SLIDE.start + rod], low[ROD_SLIDE.start + rod]);
+    }
+    // The foot set the ball going in both; with less friction it left another way
+    // (measured: (-120, 476) cm/s at nominal friction, (432, 313) at 0.7).
+    let v = |o: &[f32; OBS_DIM]| [o[BALL_POS.start + 3], o[BALL_POS.start + 4]];
+    let (a, b) = (v(&nominal), v(&low));
+    let speed = |v: [f32; 2]| v[0].hypot(v[1]);
+    assert!(speed(a) > 100.0 && speed(b) > 100.0, "{a:?} {b:?}");
+    assert!(
+        speed([a[0] - b[0], a[1] - b[1]]) > 100.0,
+        "the men's friction changed little: {a:?} {b:?}"
+    );
 }
 
 #[test]

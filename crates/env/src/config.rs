@@ -901,6 +901,11 @@ pub struct Randomization {
     pub ball_restitution_scale: [f32; 2],
     /// Multiplier on every servo's kp and kv.
     pub servo_gain_scale: [f32; 2],
+    /// Multiplier on the sliding friction of the ball's soft contacts with the men
+    /// (`man_contacts` `mujoco_soft` or `mujoco_sdf`; under `rapier` the ball's own
+    /// friction is the men's too, and `ball_friction_scale` moves it). A fixed value
+    /// draws nothing from the RNG, so runs without it replay as before it existed.
+    pub men_friction_scale: [f32; 2],
     /// Standard deviation of Gaussian noise on observed positions (ball and slides in cm,
     /// angles in rad); velocities are observed without noise.
     pub position_noise_std: [f32; 2],
@@ -915,6 +920,7 @@ impl Default for Randomization {
             ball_friction_scale: [1.0, 1.0],
             ball_restitution_scale: [1.0, 1.0],
             servo_gain_scale: [1.0, 1.0],
+            men_friction_scale: [1.0, 1.0],
             position_noise_std: [0.0, 0.0],
             action_latency_steps: [0, 0],
         }
@@ -1093,6 +1099,11 @@ impl FoosballConfig {
             true,
         )?;
         range("randomization.servo_gain_scale", r.servo_gain_scale, false)?;
+        range(
+            "randomization.men_friction_scale",
+            r.men_friction_scale,
+            true,
+        )?;
         range(
             "randomization.position_noise_std",
             r.position_noise_std,

@@ -366,6 +366,12 @@ impl FoosballEnv {
         let position_noise_std = uniform(rng, r.position_noise_std);
         let [lo, hi] = r.action_latency_steps;
         let action_latency = rng.random_range(lo..=hi);
+        // Drawn last, and only when it varies: the streams of runs without it stay as
+        // they were.
+        let men_friction_scale = match r.men_friction_scale {
+            [lo, hi] if lo == hi => lo,
+            range => uniform(rng, range),
+        };
         EpisodeDraw {
             physics: PhysicsParams {
                 ball_mass,
@@ -373,6 +379,7 @@ impl FoosballEnv {
                 ball_restitution,
                 men_restitution,
                 servo_gain_scale,
+                men_friction_scale,
                 ..nominal
             },
             position_noise_std,

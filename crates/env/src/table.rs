@@ -60,6 +60,8 @@ pub struct PhysicsParams {
     pub contact_recycling: bool,
     /// Multiplier on every servo's kp and kv.
     pub servo_gain_scale: f32,
+    /// Multiplier on the sliding friction of the ball's soft contacts with the men.
+    pub men_friction_scale: f32,
     /// The ball's centre stays at z = its radius (no vertical motion).
     pub ball_planar: bool,
     /// How the rods are held.
@@ -86,6 +88,7 @@ impl PhysicsParams {
             slide_stops: config.slide_stops,
             contact_recycling: config.contact_recycling,
             servo_gain_scale: 1.0,
+            men_friction_scale: 1.0,
             ball_planar: config.ball.planar,
             rod_mount: config.rod_mount,
             integrator: config.integrator,
@@ -570,14 +573,18 @@ impl Table {
             .colliders
             .insert_with_parent(ball_collider, ball, &mut world.bodies);
 
+        let men_contact = SoftContact {
+            friction: SoftContact::REFERENCE.friction * params.men_friction_scale,
+            ..SoftContact::REFERENCE
+        };
         let (soft_contact, sdf_search) = match params.man_contacts {
             ManContacts::Rapier => (None, None),
-            ManContacts::MujocoSoft => (Some(SoftContact::REFERENCE), None),
+            ManContacts::MujocoSoft => (Some(men_contact), None),
             // The model's contacts with the model's regularisation.
             ManContacts::MujocoSdf => (
                 Some(SoftContact {
                     regularisation: Regularisation::MujocoPyramid,
-                    ..SoftContact::REFERENCE
+                    ..men_contact
                 }),
                 Some(SdfSearch::REFERENCE),
             ),
