@@ -8,12 +8,14 @@ the test, not committed); numpy only.
     python tools/score_by_start.py RUN --first-actions   # and how its first actions follow x
     python tools/score_by_start.py RUN --test evaluate-last-stochastic --at-bound 4 --split-x -0.22
         # sampled episodes: the score rate where the first midfield slide sat at a bound or not
+    python tools/score_by_start.py RUN --mujoco results/transfer/NAME.json   # beside the MuJoCo model's
 
 Prints, for the first run, the score rate in 12 bins of the start's x; then for every
 other run the chance that it scores on a start where the first one scores and where the
 first one does not (equal chances: the two score on unrelated starts).
 """
 import argparse
+import json
 import os
 
 import numpy as np
@@ -62,6 +64,22 @@ def at_bound(episodes, x, scored, j, split_x):
             print(f"| {side} | {label} | {n} | {rate} |")
 
 
+def beside_model(x, scored, path, bins=6):
+    """The score rate by start x in `bins` sextiles of the run's own starts, beside the
+    MuJoCo model's episodes of a `tools/transfer.py --out` file (its `per_episode` starts,
+    joint frame, whose x is the world's)."""
+    per = json.load(open(path))["per_episode"]
+    mx = np.array([e["start"][0] for e in per])
+    ms = np.array([e["scored"] for e in per])
+    edges = np.quantile(x, np.linspace(0, 1, bins + 1))
+    print(f"| start x (cm) | ours: episodes, score rate | the MuJoCo model ({path}): episodes, score rate |")
+    print("| --- | --- | --- |")
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        o, m = (x >= lo) & (x <= hi), (mx >= lo) & (mx <= hi)
+        theirs = f"{m.sum()}, {ms[m].mean():.2f}" if m.any() else "0, -"
+        print(f"| {lo:+.2f} to {hi:+.2f} | {o.sum()}, {scored[o].mean():.2f} | {theirs} |")
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("runs", nargs="+", help="run directories with test/trajectories.bin, same test starts")
@@ -73,6 +91,8 @@ def main():
                    help="also the score rate by whether the first action J sat at a bound")
     p.add_argument("--split-x", type=float, default=-0.22,
                    help="start x (world cm) splitting the starts for --at-bound")
+    p.add_argument("--mujoco", metavar="JSON",
+                   help="also the score rate by start beside the MuJoCo model's (a tools/transfer.py --out file)")
     a = p.parse_args()
     episodes = read_episodes(a.runs[0], a.test)
     x, first = scored_starts(episodes)
@@ -88,6 +108,8 @@ def main():
         first_actions(episodes, x)
     if a.at_bound is not None:
         at_bound(episodes, x, first, a.at_bound, a.split_x)
+    if a.mujoco:
+        beside_model(x, first, a.mujoco)
     print("| run | score rate | P(scores where the first scores) | P(scores where it does not) |")
     print("| --- | --- | --- | --- |")
     for run in a.runs[1:]:
