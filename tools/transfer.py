@@ -74,11 +74,16 @@ def action_scale(run, env):
     raise SystemExit(f"{run}/config.toml: env.action_map {action_map!r} is neither saturating nor linear")
 
 
-def play(env, act, seed, scale):
-    """One episode: its summary (the test's per-episode quantities and its end)."""
+def play(env, act, seed, scale, record=None):
+    """One episode: its summary (the test's per-episode quantities and its end). With
+    `record` (a list), the episode is appended to it in the step-response fixture's
+    schema: the start, each step's action in project units of the code's map (what the
+    gym was given / 20) and every observation."""
     np.random.seed(seed)
     obs, _ = env.reset()
     start = [float(obs[0]), float(obs[1])]
+    if record is not None:
+        record.append({"name": f"episode {seed}", "ball": start, "actions": [], "obs": [obs.tolist()]})
     total, steps, distances, speeds, scored = 0.0, 0, [], [], False
     while True:
         act.stdin.write(" ".join(f"{v:.7g}" for v in obs) + "\n")
@@ -88,6 +93,9 @@ def play(env, act, seed, scale):
             raise RuntimeError("act stopped answering: " + act.stderr.read())
         action = np.array([float(v) for v in line.split()], dtype=np.float64)
         obs, reward, terminated, _, _ = env.step(scale * action)
+        if record is not None:
+            record[-1]["actions"].append((scale * action / 20).tolist())
+            record[-1]["obs"].append(obs.tolist())
         steps += 1
         total += reward
         x, y = float(obs[0]), float(obs[1])
@@ -166,12 +174,21 @@ def main():
     p.add_argument("--episodes", type=int, default=200)
     p.add_argument("--act", default="target/release/act", help="the act binary")
     p.add_argument("--out", help="write the summary as JSON here")
+    p.add_argument("--record", help="write the episodes (actions and observations, the step-response "
+                   "fixture's schema) as JSON here")
+    p.add_argument("--seeds", help="play these episodes (comma separated) instead of 0 .. episodes - 1")
     a = p.parse_args()
     env = load_gym(os.environ["FOOSBALL_CU"])
     act = subprocess.Popen([a.act, "--run", a.run, "--checkpoint", a.checkpoint], stdin=subprocess.PIPE,
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, bufsize=1)
     scale = action_scale(a.run, env)
-    episodes = [play(env, act, seed, scale) for seed in range(a.episodes)]
+    seeds = [int(v) for v in a.seeds.split(",")] if a.seeds else range(a.episodes)
+    record = [] if a.record else None
+    episodes = [play(env, act, seed, scale, record) for seed in seeds]
+    if a.record:
+        with open(a.record, "w") as f:
+            json.dump({"what": f"{a.run} ({a.checkpoint}) on the paper code's gym, episodes {list(seeds)}",
+                       "dt": float(env.model.opt.timestep), "cases": record}, f)
     act.stdin.close()
     act.wait()
     theirs = summarise(episodes)
