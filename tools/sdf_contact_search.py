@@ -41,6 +41,9 @@ from mujoco_sensitivity import midfielder_pair, midfielder_poses
 
 FIELD = "crates/env/data/man_sdf.bin"
 MAGIC = b"FOOSSDF1"
+OCTREE = "crates/env/data/man_octree.bin"
+OCTREE_MAGIC = b"FOOSOCT1"
+LEAF = 1 << 31  # an octree node that is a leaf: the low bits index its coefficients
 DIST_UNIT = 2e-4  # cm per count of the stored distances
 GRAD_UNIT = 1.0 / 32000.0  # per count of the stored gradients (unit vectors, a little over 1 where rounded)
 MID_ROD = (0.0, -7.5, 7.75)  # yellow's midfield axis at x = 0, world, cm
@@ -102,24 +105,17 @@ def field_frame(m, d, geom):
     return r, d.geom_xpos[geom] - r @ m.mesh_pos[mesh]
 
 
-def grid_main(a):
-    m, d = load()
-    mujoco.mj_forward(m, d)
-    _, man = midfielder_pair(m)
+def man_geometry(m, d, man):
+    """The plugin's mesh box (its frame, cm), the field's frame in our man frame (the rod's
+    frame moved to the man's x: yellow's axes the world's, black's turned half a turn about
+    z; the same for every man) as a rotation and translation, and the corners of the man's
+    bounding box (the model's `geom_aabb`) in the field's frame."""
     mesh = m.geom_dataid[man]
     va, nv = m.mesh_vertadr[mesh], m.mesh_vertnum[mesh]
-    verts = m.mesh_vert[va:va + nv].astype(float) @ quat_mat(m.mesh_quat[mesh]).T + m.mesh_pos[mesh]
-    lo, hi = verts.min(0), verts.max(0)
-    margin = 0.1 * (hi - lo).max()  # sdflib.cc: box.addMargin(0.1 * largest side)
-    lo, hi = lo - margin, hi + margin
-    # inside the plugin's box (its gradient outside is a float finite difference: noise)
-    n = np.floor((hi - lo) / a.step - 1e-4).astype(int) + 1
-    sample = plugin_functions(m, d, man)
-    axes = [lo[i] + a.step * np.arange(n[i]) for i in range(3)]
-    points = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
-    values = np.array([np.r_[sample(p)] for p in points])
-    # the field's frame in our man frame (the rod's frame moved to the man's x: yellow's
-    # axes the world's, black's turned half a turn about z), the same for every man
+    # the plugin's vertices are floats (sdflib's glm::vec3)
+    verts = (m.mesh_vert[va:va + nv].astype(float) @ quat_mat(m.mesh_quat[mesh]).T
+             + m.mesh_pos[mesh]).astype(np.float32).astype(float)
+
     def in_man_frame(g):
         rod_joint = [j for j in range(m.njnt) if m.jnt_bodyid[j] == m.body_parentid[m.geom_bodyid[g]]][0]
         turned = np.diag([1.0, 1.0, 1.0]) if d.xaxis[rod_joint][0] > 0 else np.diag([-1.0, -1.0, 1.0])
@@ -135,6 +131,27 @@ def grid_main(a):
     rm, pm = quat_mat(m.mesh_quat[mesh]), m.mesh_pos[mesh]
     corners = [rm @ np.array([aabb[k] + (aabb[k + 3] if c >> k & 1 else -aabb[k + 3]) for k in range(3)]) + pm
                for c in range(8)]  # the geom's box corners, in the plugin's frame
+    return (verts.min(0), verts.max(0)), (r, t), corners
+
+
+def write_frame(f, r, t, corners):
+    f.write(struct.pack("<7f", *t, *mat_quat(r)[[1, 2, 3, 0]]))  # x y z w
+    f.write(struct.pack("<24f", *np.ravel(corners)))
+
+
+def grid_main(a):
+    m, d = load()
+    mujoco.mj_forward(m, d)
+    _, man = midfielder_pair(m)
+    (lo, hi), (r, t), corners = man_geometry(m, d, man)
+    margin = 0.1 * (hi - lo).max()  # sdflib.cc: box.addMargin(0.1 * largest side)
+    lo, hi = lo - margin, hi + margin
+    # inside the plugin's box (its gradient outside is a float finite difference: noise)
+    n = np.floor((hi - lo) / a.step - 1e-4).astype(int) + 1
+    sample = plugin_functions(m, d, man)
+    axes = [lo[i] + a.step * np.arange(n[i]) for i in range(3)]
+    points = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    values = np.array([np.r_[sample(p)] for p in points])
     dist = np.round(values[:, 0] / DIST_UNIT)
     grad = np.round(values[:, 1:] / GRAD_UNIT)
     assert np.abs(dist).max() < 32767 and np.abs(grad).max() <= 32767, (np.abs(values).max(0))
@@ -143,11 +160,70 @@ def grid_main(a):
         f.write(MAGIC)
         f.write(struct.pack("<3I", *n))
         f.write(struct.pack("<5f", *lo, a.step, DIST_UNIT))
-        f.write(struct.pack("<7f", *t, *mat_quat(r)[[1, 2, 3, 0]]))  # x y z w
-        f.write(struct.pack("<24f", *np.ravel(corners)))
+        write_frame(f, r, t, corners)
         f.write(stored.tobytes())
     print(f"{a.out}: {n.tolist()} points every {a.step} cm from {np.round(lo, 4).tolist()}, "
           f"inside share {(values[:, 0] < 0).mean():.3f}, {os.path.getsize(a.out)} bytes")
+
+
+def octree_main(a):
+    """The plugin's octree itself: sdflib's `OctreeSdf(mesh, box, 8, 3, 1e-3, CONTINUITY)`
+    on the mesh's box padded by a tenth of its largest side and made a cube, 8 cells a side
+    at depth 3, leaves down to depth 8, each leaf's distance a tricubic polynomial of the
+    point's place in the leaf. Each leaf is found by fitting a general tricubic (64
+    coefficients) to the plugin's distance at 125 points of a cell, from the depth-3 cells
+    down: a cell whose fit is exact to float rounding is a leaf, one whose fit is not is
+    split in eight. The plugin's gradient is the leaf polynomial's, normalised."""
+    m, d = load()
+    mujoco.mj_forward(m, d)
+    _, man = midfielder_pair(m)
+    (lo, hi), (r, t), corners = man_geometry(m, d, man)
+    margin = 0.1 * (hi - lo).max()
+    lo, hi = lo - margin, hi + margin
+    side = (hi - lo).max()
+    cube = (lo + hi) / 2 - side / 2
+    start, depth_max = 8, 8
+    sample = plugin_functions(m, d, man)
+    fr = np.array([0.03, 0.26, 0.5, 0.74, 0.97])
+    at = np.array([(x, y, z) for x in fr for y in fr for z in fr])
+    basis = np.array([[p[0] ** i * p[1] ** j * p[2] ** k for k in range(4) for j in range(4) for i in range(4)]
+                      for p in at])
+    fit = np.linalg.pinv(basis)
+    nodes, leaves, worst = [0] * start ** 3, [], 0.0
+
+    def visit(slot, depth, corner):
+        nonlocal worst
+        size = side / 2 ** depth
+        y = np.array([sample(corner + size * p)[0] for p in at])
+        c = fit @ y
+        residual = np.abs(basis @ c - y).max()
+        if residual < 3e-6 * max(1.0, np.abs(y).max()) or depth == depth_max:
+            worst = max(worst, residual)
+            nodes[slot] = LEAF | len(leaves)
+            leaves.append(c)
+            return
+        first = len(nodes)
+        nodes[slot] = first
+        nodes.extend([0] * 8)
+        for child in range(8):
+            bits = np.array([child & 1, child >> 1 & 1, child >> 2 & 1])
+            visit(first + child, depth + 1, corner + bits * size / 2)
+
+    for z in range(start):
+        for y in range(start):
+            for x in range(start):
+                visit((z * start + y) * start + x, 3, cube + np.array([x, y, z]) * side / start)
+    with open(a.out, "wb") as f:
+        f.write(OCTREE_MAGIC)
+        f.write(struct.pack("<2I", start, depth_max))
+        f.write(struct.pack("<4f", *cube, side))
+        write_frame(f, r, t, corners)
+        f.write(struct.pack("<I", len(nodes)))
+        f.write(np.array(nodes, dtype="<u4").tobytes())
+        f.write(struct.pack("<I", len(leaves)))
+        f.write(np.array(leaves, dtype="<f4").tobytes())
+    print(f"{a.out}: cube {np.round(cube, 5).tolist()} side {side:.5f}, {len(nodes)} nodes, {len(leaves)} leaves "
+          f"(worst fit {worst:.2e} cm), {os.path.getsize(a.out)} bytes")
 
 
 def read_field(path):
@@ -312,11 +388,13 @@ def main():
     c.add_argument("--poses", type=int, default=300)
     c.add_argument("--model-moved", type=float, default=0.0,
                    help="compare the model with itself, its ball moved this far along x (cm), instead")
+    o = sub.add_parser("octree", help="read the model's own octree of the man off its plugin")
+    o.add_argument("--out", default=OCTREE)
     f = sub.add_parser("fixture", help="the model's contacts at random poses, for the table's test")
     f.add_argument("--poses", type=int, default=120)
     f.add_argument("--out", default="tests/data/sdf_contacts.json")
     a = p.parse_args()
-    {"grid": grid_main, "compare": compare_main, "fixture": fixture_main}[a.cmd](a)
+    {"grid": grid_main, "octree": octree_main, "compare": compare_main, "fixture": fixture_main}[a.cmd](a)
 
 
 if __name__ == "__main__":

@@ -52,7 +52,7 @@ struct Args {
     /// Env steps per epoch (overrides `protocol.steps_per_epoch`).
     #[arg(long)]
     steps_per_epoch: Option<u64>,
-    /// Rule preset of the table (`reference`, `reference_v4`, `reference_v3`, `reference_v2`, `paper`,
+    /// Rule preset of the table (`reference`, `reference_v5`, `reference_v4`, `reference_v3`, `reference_v2`, `paper`,
     /// `end_on_goal`, `reference_v1`, `paper_v1`): replaces the configs' `[env]` by the preset's values
     /// (their opponent kept).
     #[arg(long)]

@@ -25,6 +25,7 @@ mod league;
 mod learning;
 mod learning_foosball;
 mod learning_images;
+mod one_step_parity;
 mod pendulum_parity;
 mod planner;
 mod presets;

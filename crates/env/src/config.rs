@@ -3,45 +3,46 @@
 //! Every struct rejects unknown keys, and [`FoosballConfig::validate`] names the offending
 //! key (dotted path, e.g. `randomization.ball_mass_scale`) and value.
 //!
-//! A configuration starts from a [`Preset`] (`preset = "reference" | "reference_v4" |
+//! A configuration starts from a [`Preset`] (`preset = "reference" | "reference_v5" | "reference_v4" |
 //! "reference_v3" | "reference_v2" | "paper" | "end_on_goal" | "reference_v1" |
 //! "paper_v1"`, default
 //! `reference`): keys written in the file override the preset's values, keys left out
 //! take them. The presets, with units:
 //!
-//! | key | `reference` | `reference_v4` | `reference_v3` | `reference_v2` | `paper` | `end_on_goal` | `reference_v1` | `paper_v1` |
-//! | --- | --- | --- | --- | --- | --- | --- | --- | --- |
-//! | `ball_frame` (frame of every ball number, below) | joint | joint | joint | joint | joint | joint | world | world |
-//! | `action_map` | saturating | saturating | saturating | saturating | saturating | saturating | linear | linear |
-//! | `slide_stops` | bumpers | bumpers | bumpers | bumpers | bumpers | bumpers | control_range | control_range |
-//! | `ball.model` | reference | reference | reference | reference | reference | reference | rolling | rolling |
-//! | `men_shape` | mesh | mesh | mesh | reference | reference | reference | box | box |
-//! | `contact_recycling` (rapier's; stale contacts at cm scale) | false | false | false | false | false | false | true | true |
-//! | `physics_dt` (s) | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 |
-//! | `frame_skip` (physics steps per agent step) | 1 | 1 | 1 | 1 | 5 | 5 | 1 | 5 |
-//! | `max_episode_steps` (agent steps) | 20000 (40 s) | 20000 (40 s) | 20000 (40 s) | 20000 (40 s) | 4000 (40 s) | 4000 (40 s) | 20000 (40 s) | 4000 (40 s) |
-//! | `rules.stagnant_steps` (agent steps at <= `stagnant_speed` = 0.5 cm/s) | 10 (20 ms) | 10 (20 ms) | 10 (20 ms) | 10 (20 ms) | 10 (100 ms) | 10 (100 ms) | 10 (20 ms) | 10 (100 ms) |
-//! | `rules.no_progress_steps` (agent steps without +y) | 15 (30 ms) | 15 (30 ms) | 15 (30 ms) | 15 (30 ms) | 15 (150 ms) | 15 (150 ms) | 15 (30 ms) | 15 (150 ms) |
-//! | `rules.end_on_goal` | false | false | false | false | false | true | false | false |
-//! | `rules.serve_again` (a point's end serves again, the episode goes on) | false | false | false | false | false | false | false | false |
-//! | `rules.possession` (ITSF's possession limits end a point) | false | false | false | false | false | false | false | false |
-//! | `reward.goal` (cm, in `ball_frame`) | (0, 65) | (0, 65) | (0, 65) | (0, 65) | (0, 64) | (0, 64) | (0, 65) | (0, 64) |
-//! | `reward.goal_line_y` (in black's goal when y >= it) | 65 | 65 | 65 | 65 | 64 | 64 | 65 | 64 |
-//! | `reward.own_goal_line_y` (in yellow's goal when y <= -it) | 65 | 65 | 65 | 65 | 64 | 64 | 65 | 64 |
-//! | `reward.beta` | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 once | 1000 per step in goal | 1000 per step in goal |
-//! | `reward.zero_shaping_in_goal` (`alpha - d` is 0 in goal) | true | true | true | true | false | false | true | false |
-//! | `reward.conceded_penalty` (per step in own goal) | 1000 | 1000 | 1000 | 1000 | 0 | 0 | 1000 | 0 |
-//! | `start.y_mean` (cm, in `ball_frame`) | 0.0 | 0.0 | 0.0 | 0.0 | -0.1 | -0.1 | -4.0 | -0.1 |
-//! | `integrator` (how a physics step is taken) | mujoco_euler | mujoco_euler | mujoco_euler | rapier | rapier | rapier | rapier | rapier |
-//! | `man_contacts` (the ball's contacts with the men) | mujoco_sdf | mujoco_soft | rapier | rapier | rapier | rapier | rapier | rapier |
-//! | `ball.friction` (of every ball contact) | 1.0 | 1.0 | 1.0 | 0.01 | 0.01 | 0.01 | 0.3 | 0.3 |
-//! | `rod_mount` | locked_axes | locked_axes | locked_axes | joint | joint | joint | joint | joint |
-//! | `ball.planar` (no vertical ball motion) | true | true | true | true | true | true | true | false |
+//! | key | `reference` | `reference_v5` | `reference_v4` | `reference_v3` | `reference_v2` | `paper` | `end_on_goal` | `reference_v1` | `paper_v1` |
+//! | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |
+//! | `ball_frame` (frame of every ball number, below) | joint | joint | joint | joint | joint | joint | joint | world | world |
+//! | `action_map` | saturating | saturating | saturating | saturating | saturating | saturating | saturating | linear | linear |
+//! | `slide_stops` | bumpers | bumpers | bumpers | bumpers | bumpers | bumpers | bumpers | control_range | control_range |
+//! | `ball.model` | reference | reference | reference | reference | reference | reference | reference | rolling | rolling |
+//! | `men_shape` | mesh | mesh | mesh | mesh | reference | reference | reference | box | box |
+//! | `contact_recycling` (rapier's; stale contacts at cm scale) | false | false | false | false | false | false | false | true | true |
+//! | `physics_dt` (s) | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 |
+//! | `frame_skip` (physics steps per agent step) | 1 | 1 | 1 | 1 | 1 | 5 | 5 | 1 | 5 |
+//! | `max_episode_steps` (agent steps) | 20000 (40 s) | 20000 (40 s) | 20000 (40 s) | 20000 (40 s) | 20000 (40 s) | 4000 (40 s) | 4000 (40 s) | 20000 (40 s) | 4000 (40 s) |
+//! | `rules.stagnant_steps` (agent steps at <= `stagnant_speed` = 0.5 cm/s) | 10 (20 ms) | 10 (20 ms) | 10 (20 ms) | 10 (20 ms) | 10 (20 ms) | 10 (100 ms) | 10 (100 ms) | 10 (20 ms) | 10 (100 ms) |
+//! | `rules.no_progress_steps` (agent steps without +y) | 15 (30 ms) | 15 (30 ms) | 15 (30 ms) | 15 (30 ms) | 15 (30 ms) | 15 (150 ms) | 15 (150 ms) | 15 (30 ms) | 15 (150 ms) |
+//! | `rules.end_on_goal` | false | false | false | false | false | false | true | false | false |
+//! | `rules.serve_again` (a point's end serves again, the episode goes on) | false | false | false | false | false | false | false | false | false |
+//! | `rules.possession` (ITSF's possession limits end a point) | false | false | false | false | false | false | false | false | false |
+//! | `reward.goal` (cm, in `ball_frame`) | (0, 65) | (0, 65) | (0, 65) | (0, 65) | (0, 65) | (0, 64) | (0, 64) | (0, 65) | (0, 64) |
+//! | `reward.goal_line_y` (in black's goal when y >= it) | 65 | 65 | 65 | 65 | 65 | 64 | 64 | 65 | 64 |
+//! | `reward.own_goal_line_y` (in yellow's goal when y <= -it) | 65 | 65 | 65 | 65 | 65 | 64 | 64 | 65 | 64 |
+//! | `reward.beta` | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 once | 1000 per step in goal | 1000 per step in goal |
+//! | `reward.zero_shaping_in_goal` (`alpha - d` is 0 in goal) | true | true | true | true | true | false | false | true | false |
+//! | `reward.conceded_penalty` (per step in own goal) | 1000 | 1000 | 1000 | 1000 | 1000 | 0 | 0 | 1000 | 0 |
+//! | `start.y_mean` (cm, in `ball_frame`) | 0.0 | 0.0 | 0.0 | 0.0 | 0.0 | -0.1 | -0.1 | -4.0 | -0.1 |
+//! | `integrator` (how a physics step is taken) | mujoco_euler | mujoco_euler | mujoco_euler | mujoco_euler | rapier | rapier | rapier | rapier | rapier |
+//! | `man_contacts` (the ball's contacts with the men) | mujoco_octree | mujoco_sdf | mujoco_soft | rapier | rapier | rapier | rapier | rapier | rapier |
+//! | `ball.friction` (of every ball contact) | 1.0 | 1.0 | 1.0 | 1.0 | 0.01 | 0.01 | 0.01 | 0.3 | 0.3 |
+//! | `rod_mount` | locked_axes | locked_axes | locked_axes | locked_axes | joint | joint | joint | joint | joint |
+//! | `ball.planar` (no vertical ball motion) | true | true | true | true | true | true | true | true | false |
 //!
 //! `reference` is the paper's code (Foosball_CU v2 gym and its MuJoCo model), its rods
 //! moved step by step as MuJoCo moves them and the ball's contacts with the men found and
-//! made as MuJoCo finds and makes them (its SDF search on the model's man field, soft
-//! contacts); `reference_v4` is the same game with one soft contact per man on our men's
+//! made as MuJoCo finds and makes them (its SDF search on the model's own octree of the
+//! man, soft contacts); `reference_v5` is the same game with the man's field sampled every
+//! 0.1 cm; `reference_v4` is the same game with one soft contact per man on our men's
 //! colliders, `reference_v3` the same game with rapier's rigid contacts between the ball
 //! and the men (both kept so that the runs made on them still replay);
 //! `reference_v2` is `reference_v3` with this project's first servo, whose rods lag the
@@ -73,10 +74,17 @@ pub enum Preset {
     /// (its counters are 20 ms and 30 ms), each step taken as MuJoCo takes it
     /// ([`Integrator::MujocoEuler`]) with the mesh's men ([`MenShape::Mesh`]), the
     /// ball's contacts with them found by the model's own search on its man field and
-    /// made soft as MuJoCo makes them ([`ManContacts::MujocoSdf`]). The default: it is
-    /// what produced the paper's figures.
+    /// made soft as MuJoCo makes them ([`ManContacts::MujocoOctree`]: the search on the
+    /// model's own octree of the man). The default: it is what produced the paper's
+    /// figures.
     #[default]
     Reference,
+    /// The fifth `reference` of this project: the same game with the man's field sampled
+    /// every 0.1 cm ([`ManContacts::MujocoSdf`]), whose contacts' normals stray from the
+    /// model's by 2.4 degrees (median; 12 at one pose in ten) and whose kicks part from the
+    /// model's from the same state. The game of `results/figure2-v5`, `results/ppo-study`
+    /// and the fifth league.
+    ReferenceV5,
     /// The fourth `reference` of this project: the same game with one soft contact per
     /// man on our men's colliders ([`ManContacts::MujocoSoft`]), whose kicks leave 11 %
     /// slower and 5 degrees further off the model's. The game of `results/figure2-v4`,
@@ -110,8 +118,9 @@ pub enum Preset {
 
 impl Preset {
     /// Every preset, in documentation order.
-    pub const ALL: [Preset; 8] = [
+    pub const ALL: [Preset; 9] = [
         Preset::Reference,
+        Preset::ReferenceV5,
         Preset::ReferenceV4,
         Preset::ReferenceV3,
         Preset::ReferenceV2,
@@ -125,6 +134,7 @@ impl Preset {
     pub fn name(self) -> &'static str {
         match self {
             Preset::Reference => "reference",
+            Preset::ReferenceV5 => "reference_v5",
             Preset::ReferenceV4 => "reference_v4",
             Preset::ReferenceV3 => "reference_v3",
             Preset::ReferenceV2 => "reference_v2",
@@ -299,6 +309,11 @@ impl FoosballConfig {
                 ..code_table
             },
             Preset::Reference => Self {
+                preset,
+                man_contacts: ManContacts::MujocoOctree,
+                ..Self::preset(Preset::ReferenceV5)
+            },
+            Preset::ReferenceV5 => Self {
                 preset,
                 man_contacts: ManContacts::MujocoSdf,
                 ..Self::preset(Preset::ReferenceV4)
@@ -855,8 +870,14 @@ pub enum ManContacts {
     /// field ([`crate::man_field`]), a patch of up to 40 contacts per man where
     /// `mujoco_soft` makes one on the men's colliders; the ball seen at the model's height
     /// (its joints' origin, [`BallFrame::JOINT_ORIGIN`]). Same law and solve. Needs
-    /// `integrator = "mujoco_euler"`.
+    /// `integrator = "mujoco_euler"`. The field sampled every 0.1 cm (trilinear between the
+    /// samples), whose contacts part from the model's where the plugin's octree changes
+    /// leaves or bends within one.
     MujocoSdf,
+    /// As `mujoco_sdf`, on the plugin's own octree of the man ([`crate::man_octree`]): the
+    /// model's field to float rounding, so the model's contacts exactly. Needs
+    /// `integrator = "mujoco_euler"`.
+    MujocoOctree,
 }
 
 /// Who controls black's rods.
@@ -1003,6 +1024,7 @@ impl FoosballConfig {
         if self.man_contacts != ManContacts::Rapier && self.integrator != Integrator::MujocoEuler {
             let name = match self.man_contacts {
                 ManContacts::MujocoSdf => "mujoco_sdf",
+                ManContacts::MujocoOctree => "mujoco_octree",
                 _ => "mujoco_soft",
             };
             return Err(ConfigError::new(

@@ -30,6 +30,7 @@ pub mod foosball;
 pub mod geometry;
 pub mod layout;
 pub mod man_field;
+pub mod man_octree;
 pub mod observation;
 pub mod opponent;
 pub mod pendulum;

@@ -1,10 +1,13 @@
-//! The man's signed distance field as the reference model has it: its `sdflib` plugin's
-//! distance and gradient, sampled every 0.1 cm over the plugin's box and shipped as data
-//! (`crates/env/data/man_sdf.bin`, made by `tools/sdf_contact_search.py grid` from the
-//! model of the paper's code, Foosball_CU, Apache-2.0; `crates/env/data/README.md`).
-//! [`crate::sdf_search`] finds the ball's contacts with a man on it as MuJoCo does.
+//! The man's signed distance field as the reference model has it, in one of two forms
+//! ([`FieldForm`]): its `sdflib` plugin's own octree ([`crate::man_octree`], exact), or the
+//! plugin's distance and gradient sampled every 0.1 cm over the plugin's box (trilinear
+//! between the samples; the form of `reference_v5` and earlier), both shipped as data
+//! (`crates/env/data/man_octree.bin` and `man_sdf.bin`, made by
+//! `tools/sdf_contact_search.py octree` and `grid` from the model of the paper's code,
+//! Foosball_CU, Apache-2.0; `crates/env/data/README.md`). [`crate::sdf_search`] finds
+//! the ball's contacts with a man on it as MuJoCo does.
 //!
-//! The file: the magic `FOOSSDF1`; the grid's point counts along x, y, z (three `u32`);
+//! The grid's file: the magic `FOOSSDF1`; the grid's point counts along x, y, z (three `u32`);
 //! its first point (three `f32`, cm), spacing (cm) and distance unit (cm per count); the
 //! pose of the field's frame in a man's frame (translation, cm, and unit quaternion
 //! `x y z w`; a man's frame is its rod's body frame moved along the rod to the man); the
@@ -16,13 +19,26 @@ use std::sync::OnceLock;
 
 use rapier3d::glamx::{DQuat, DVec3};
 
+use crate::man_octree::{self, Octree};
+
 const MAGIC: &[u8; 8] = b"FOOSSDF1";
 const GRADIENT_UNIT: f64 = 1.0 / 32000.0;
 const HEADER_BYTES: usize = 8 + 12 + 20 + 28 + 96;
+const OCTREE_HEADER_BYTES: usize = 8 + 8 + 16 + 28 + 96;
 
-/// A man's signed distance field (negative inside the man), cm, in the field's own frame.
+/// Which form of the reference man's field a table reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FieldForm {
+    /// The plugin's own octree: the model's distance to float rounding, its gradient.
+    #[default]
+    Octree,
+    /// Samples every 0.1 cm, trilinear between them (`reference_v5` and earlier).
+    Grid,
+}
+
+/// The plugin's distance and gradient sampled on a grid.
 #[derive(Debug, Clone, PartialEq)]
-pub struct ManField {
+struct Grid {
     /// The grid's first point, cm.
     lo: DVec3,
     /// Grid spacing, cm.
@@ -31,6 +47,19 @@ pub struct ManField {
     counts: [usize; 3],
     /// Per point (x slowest): distance (cm) and gradient.
     samples: Vec<[f32; 4]>,
+}
+
+/// How a field file holds the distance.
+#[derive(Debug, Clone, PartialEq)]
+enum Shape {
+    Grid(Grid),
+    Octree(Octree),
+}
+
+/// A man's signed distance field (negative inside the man), cm, in the field's own frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ManField {
+    shape: Shape,
     /// Rotation of the field's frame in a man's frame.
     pub rotation: DQuat,
     /// Origin of the field's frame in a man's frame, cm.
@@ -43,36 +72,46 @@ pub struct ManField {
 }
 
 impl ManField {
-    /// The reference model's man (every man of both teams is the same mesh), read once.
-    pub fn reference() -> &'static ManField {
-        static FIELD: OnceLock<ManField> = OnceLock::new();
-        FIELD.get_or_init(|| {
-            ManField::parse(include_bytes!("../data/man_sdf.bin"))
-                .expect("the shipped man_sdf.bin parses (checked by this module's tests)")
-        })
+    /// The reference model's man (every man of both teams is the same mesh) in `form`,
+    /// read once.
+    pub fn reference(form: FieldForm) -> &'static ManField {
+        static OCTREE: OnceLock<ManField> = OnceLock::new();
+        static GRID: OnceLock<ManField> = OnceLock::new();
+        match form {
+            FieldForm::Octree => OCTREE.get_or_init(|| {
+                ManField::parse(include_bytes!("../data/man_octree.bin"))
+                    .expect("the shipped man_octree.bin parses (checked by this module's tests)")
+            }),
+            FieldForm::Grid => GRID.get_or_init(|| {
+                ManField::parse(include_bytes!("../data/man_sdf.bin"))
+                    .expect("the shipped man_sdf.bin parses (checked by this module's tests)")
+            }),
+        }
     }
 
-    /// Reads a field file (the format in the module's docs).
+    /// Reads a field file: a grid (the format in the module's docs) or an octree
+    /// ([`crate::man_octree`]'s).
     pub fn parse(bytes: &[u8]) -> Result<ManField, String> {
-        if bytes.len() < HEADER_BYTES || &bytes[..8] != MAGIC {
-            return Err("not a man field: no FOOSSDF1 header".into());
-        }
         let word = |i: usize| {
             let at = 8 + 4 * i;
             [bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]]
         };
         let float = |i: usize| f64::from(f32::from_le_bytes(word(i)));
+        if bytes.len() >= OCTREE_HEADER_BYTES && &bytes[..8] == man_octree::MAGIC {
+            let cells = u32::from_le_bytes(word(0));
+            let corner = DVec3::new(float(2), float(3), float(4));
+            let tree = Octree::parse(cells, corner, float(5), &bytes[OCTREE_HEADER_BYTES..])?;
+            return Ok(ManField::placed(Shape::Octree(tree), |i| float(6 + i)));
+        }
+        if bytes.len() < HEADER_BYTES || &bytes[..8] != MAGIC {
+            return Err("not a man field: no FOOSSDF1 or FOOSOCT1 header".into());
+        }
         let counts = [0, 1, 2].map(|i| u32::from_le_bytes(word(i)) as usize);
         if counts.iter().any(|&n| n < 2) {
             return Err(format!("man field: grid counts {counts:?} below 2"));
         }
         let lo = DVec3::new(float(3), float(4), float(5));
         let (step, unit) = (float(6), float(7));
-        let translation = DVec3::new(float(8), float(9), float(10));
-        let rotation = DQuat::from_xyzw(float(11), float(12), float(13), float(14)).normalize();
-        let box_corners = core::array::from_fn(|c| {
-            DVec3::new(float(15 + 3 * c), float(16 + 3 * c), float(17 + 3 * c))
-        });
         let points = counts.iter().product::<usize>();
         let body = &bytes[HEADER_BYTES..];
         if body.len() != 8 * points {
@@ -93,27 +132,58 @@ impl ManField {
                 ]
             })
             .collect();
-        let reach = box_corners
-            .iter()
-            .map(|&c| (rotation * c + translation).length())
-            .fold(0.0, f64::max);
-        Ok(ManField {
-            reach,
+        let grid = Grid {
             lo,
             step,
             counts,
             samples,
+        };
+        Ok(ManField::placed(Shape::Grid(grid), |i| float(8 + i)))
+    }
+
+    /// The field of `shape` with the pose and box read from the header's 31 floats
+    /// `header(0..31)` (translation, quaternion `x y z w`, eight corners).
+    fn placed(shape: Shape, header: impl Fn(usize) -> f64) -> ManField {
+        let translation = DVec3::new(header(0), header(1), header(2));
+        let rotation = DQuat::from_xyzw(header(3), header(4), header(5), header(6)).normalize();
+        let box_corners = core::array::from_fn(|c| {
+            DVec3::new(header(7 + 3 * c), header(8 + 3 * c), header(9 + 3 * c))
+        });
+        let reach = box_corners
+            .iter()
+            .map(|&c| (rotation * c + translation).length())
+            .fold(0.0, f64::max);
+        ManField {
+            shape,
             rotation,
             translation,
             box_corners,
-        })
+            reach,
+        }
     }
 
-    /// The distance (cm) and its gradient at `point` (the field's frame, cm): both
-    /// trilinear between the grid's points. Off the grid, the value at the nearest point
-    /// of the grid plus the distance to it, and the gradient there (the plugin's
-    /// `boxProjection`).
+    /// The distance (cm) and its gradient at `point` (the field's frame, cm). Off the
+    /// grid or the octree's cube, the value at the nearest point of it plus the distance
+    /// to it, and the gradient there (the plugin's `boxProjection`).
     pub fn sample(&self, point: DVec3) -> (f64, DVec3) {
+        match &self.shape {
+            Shape::Grid(grid) => grid.sample(point),
+            Shape::Octree(tree) => {
+                if tree.contains(point) {
+                    tree.sample(point)
+                } else {
+                    let inside = tree.clamp(point);
+                    let (value, gradient) = tree.sample(inside);
+                    (value + point.distance(inside), gradient)
+                }
+            }
+        }
+    }
+}
+
+impl Grid {
+    /// Trilinear between the grid's points; off the grid, see [`ManField::sample`].
+    fn sample(&self, point: DVec3) -> (f64, DVec3) {
         let top = self.lo + self.step * DVec3::from(self.counts.map(|n| (n - 1) as f64));
         let inside = point.clamp(self.lo, top);
         let outside = point.distance(inside);
@@ -144,44 +214,81 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_shipped_field_is_a_man() {
-        let field = ManField::reference();
-        // Far from the man the distance grows as the distance to the grid does.
-        let far = field.box_corners[0] * 3.0;
-        let (d_far, _) = field.sample(far);
-        assert!(d_far > 5.0, "{d_far}");
-        // A distance changes no faster than the point moves; the gradient is at most a
-        // unit vector (shorter where the interpolation crosses a crease), and where it is
-        // whole inside the man it points outwards: one step along it raises the value.
-        let mut inside_found = false;
-        let mut last: Option<(DVec3, f64)> = None;
-        for i in 0..200 {
-            let t = f64::from(i) / 200.0;
-            let p = field.box_corners[0].lerp(field.box_corners[7], t);
-            let (d, g) = field.sample(p);
-            if let Some((q, e)) = last {
-                assert!((d - e).abs() <= 1.02 * p.distance(q), "{d} {e} at {p:?}");
+    fn the_shipped_fields_are_a_man() {
+        for form in [FieldForm::Octree, FieldForm::Grid] {
+            let field = ManField::reference(form);
+            // Far from the man the distance grows as the distance to the field's box does.
+            let far = field.box_corners[0] * 3.0;
+            let (d_far, _) = field.sample(far);
+            assert!(d_far > 5.0, "{form:?}: {d_far}");
+            // A distance changes no faster than the point moves (the plugin's leaves meet
+            // with small jumps deep inside the man, so a tenth more there); the gradient is
+            // at most a unit vector (the grid's is shorter where the interpolation crosses a
+            // crease), and where it is whole inside the man it points outwards: one step
+            // along it raises the value.
+            let mut inside_found = false;
+            let mut last: Option<(DVec3, f64)> = None;
+            for i in 0..200 {
+                let t = f64::from(i) / 200.0;
+                let p = field.box_corners[0].lerp(field.box_corners[7], t);
+                let (d, g) = field.sample(p);
+                if let Some((q, e)) = last {
+                    let slack = if form == FieldForm::Octree { 1.1 } else { 1.02 };
+                    assert!(
+                        (d - e).abs() <= slack * p.distance(q),
+                        "{form:?}: {d} {e} at {p:?}"
+                    );
+                }
+                last = Some((p, d));
+                assert!(g.length() < 1.001, "{form:?}: {g:?} at {p:?}");
+                if d < -0.2 && g.length() > 0.95 {
+                    inside_found = true;
+                    assert!(field.sample(p + 0.02 * g).0 > d, "{form:?}: at {p:?}");
+                }
             }
-            last = Some((p, d));
-            assert!(g.length() < 1.001, "{g:?} at {p:?}");
-            if d < -0.2 && g.length() > 0.95 {
-                inside_found = true;
-                assert!(field.sample(p + 0.02 * g).0 > d, "at {p:?}");
-            }
+            assert!(inside_found, "{form:?}: the box's diagonal crosses the man");
         }
-        assert!(inside_found, "the box's diagonal crosses the man");
+    }
+
+    /// Both files hold the plugin's field: at the grid's points the octree gives the
+    /// grid's samples back, to their rounding (2e-4 cm counts, gradients in 1/32000ths).
+    #[test]
+    fn the_octree_gives_the_grids_samples_at_its_points() {
+        let (Shape::Grid(grid), tree) = (
+            &ManField::reference(FieldForm::Grid).shape,
+            ManField::reference(FieldForm::Octree),
+        ) else {
+            panic!("the grid's file holds a grid");
+        };
+        let mut worst = (0.0_f64, 0.0_f64);
+        for (n, sample) in grid.samples.iter().enumerate().step_by(97) {
+            let [x, y, z] = [
+                n / (grid.counts[1] * grid.counts[2]),
+                n / grid.counts[2] % grid.counts[1],
+                n % grid.counts[2],
+            ];
+            let p = grid.lo + grid.step * DVec3::new(x as f64, y as f64, z as f64);
+            let (d, g) = tree.sample(p);
+            worst.0 = worst.0.max((d - f64::from(sample[0])).abs());
+            let stored = DVec3::new(sample[1].into(), sample[2].into(), sample[3].into());
+            worst.1 = worst.1.max((g - stored).abs().max_element());
+        }
+        assert!(worst.0 < 2e-4, "distance {}", worst.0);
+        assert!(worst.1 < 1e-3, "gradient {}", worst.1);
     }
 
     #[test]
-    fn trilinear_between_points_exact_at_them() {
-        let field = ManField::reference();
-        let p = field.lo + DVec3::new(20.0, 30.0, 60.0) * field.step;
-        let at = (20 * field.counts[1] + 30) * field.counts[2] + 60;
-        let (d, g) = field.sample(p);
-        assert!((d - f64::from(field.samples[at][0])).abs() < 1e-6);
-        assert!((g.x - f64::from(field.samples[at][1])).abs() < 1e-6);
-        let next = field.sample(p + DVec3::Z * field.step).0;
-        let half = field.sample(p + DVec3::Z * 0.5 * field.step).0;
+    fn the_grid_is_trilinear_between_points_exact_at_them() {
+        let Shape::Grid(grid) = &ManField::reference(FieldForm::Grid).shape else {
+            panic!("the grid's file holds a grid");
+        };
+        let p = grid.lo + DVec3::new(20.0, 30.0, 60.0) * grid.step;
+        let at = (20 * grid.counts[1] + 30) * grid.counts[2] + 60;
+        let (d, g) = grid.sample(p);
+        assert!((d - f64::from(grid.samples[at][0])).abs() < 1e-6);
+        assert!((g.x - f64::from(grid.samples[at][1])).abs() < 1e-6);
+        let next = grid.sample(p + DVec3::Z * grid.step).0;
+        let half = grid.sample(p + DVec3::Z * 0.5 * grid.step).0;
         assert!((half - 0.5 * (d + next)).abs() < 1e-6);
     }
 
@@ -191,6 +298,12 @@ mod tests {
             ManField::parse(b"nothing")
                 .unwrap_err()
                 .contains("FOOSSDF1")
+        );
+        let octree = include_bytes!("../data/man_octree.bin");
+        assert!(
+            ManField::parse(&octree[..octree.len() - 4])
+                .unwrap_err()
+                .contains("bytes of coefficients")
         );
         let bytes = include_bytes!("../data/man_sdf.bin");
         let cut = &bytes[..bytes.len() - 8];

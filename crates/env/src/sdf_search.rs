@@ -194,6 +194,7 @@ fn halton(index: usize, base: usize) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::man_field::FieldForm;
 
     #[test]
     fn halton_is_the_radical_inverse() {
@@ -206,7 +207,7 @@ mod tests {
     /// A man at the origin, neutral, its frame the world's.
     fn contacts_with_ball_at(centre: DVec3) -> Vec<SdfContact> {
         SdfSearch::REFERENCE.contacts(
-            ManField::reference(),
+            ManField::reference(FieldForm::Octree),
             DQuat::IDENTITY,
             DVec3::ZERO,
             centre,
@@ -219,7 +220,7 @@ mod tests {
         // The ball on the floor in front of a neutral man's foot (y forward, the rod 7.75
         // cm above the floor), 0.3 cm into it: many contacts, all overlapping, their
         // normals pushing the ball forward; away from the man, none.
-        let field = ManField::reference();
+        let field = ManField::reference(FieldForm::Octree);
         let touching = (0..60)
             .map(|i| DVec3::new(0.0, 3.5 - 0.05 * f64::from(i), 1.733_55 - 7.75))
             .find(|&c| {

@@ -17,7 +17,7 @@ use crate::config::{
     BallFrame, BallModel, FoosballConfig, Integrator, ManContacts, MenShape, RodMount, SlideStops,
 };
 use crate::geometry::{self, NUM_RODS, RodSpec, Team, foosman};
-use crate::man_field::ManField;
+use crate::man_field::{FieldForm, ManField};
 use crate::sdf_search::{DQuat, DVec3, SdfSearch};
 use crate::servo::Servo;
 use crate::soft_contact::{BallDofs, ManContact, Regularisation, RodDofs, SoftContact};
@@ -190,7 +190,7 @@ pub struct Table {
     soft_contact: Option<SoftContact>,
     /// Under [`ManContacts::MujocoSdf`], how those contacts are found: MuJoCo's search on
     /// the reference man's field, not one exact contact per man collider.
-    sdf_search: Option<SdfSearch>,
+    sdf_search: Option<(SdfSearch, FieldForm)>,
 }
 
 /// The floor's pull on the moving ball.
@@ -581,12 +581,19 @@ impl Table {
             ManContacts::Rapier => (None, None),
             ManContacts::MujocoSoft => (Some(men_contact), None),
             // The model's contacts with the model's regularisation.
-            ManContacts::MujocoSdf => (
+            ManContacts::MujocoSdf | ManContacts::MujocoOctree => (
                 Some(SoftContact {
                     regularisation: Regularisation::MujocoPyramid,
                     ..men_contact
                 }),
-                Some(SdfSearch::REFERENCE),
+                Some((
+                    SdfSearch::REFERENCE,
+                    if params.man_contacts == ManContacts::MujocoSdf {
+                        FieldForm::Grid
+                    } else {
+                        FieldForm::Octree
+                    },
+                )),
             ),
         };
         Self {
@@ -740,8 +747,8 @@ impl Table {
     /// The ball's contacts with the men where the bodies are at the step's start (the
     /// reference's are found so), for [`ManContacts::MujocoSoft`]: rod index and contact.
     fn man_contacts(&self) -> Vec<(usize, ManContact)> {
-        if let Some(search) = &self.sdf_search {
-            return self.sdf_man_contacts(search);
+        if let Some((search, form)) = self.sdf_search {
+            return self.sdf_man_contacts(&search, ManField::reference(form));
         }
         let centre = self.world.bodies[self.ball].translation();
         let ball_pose = Pose::from_translation(centre);
@@ -784,8 +791,7 @@ impl Table {
     /// [`ManContacts::MujocoSdf`]: MuJoCo's SDF search between the ball, seen at the
     /// model's height ([`BallFrame::JOINT_ORIGIN`]), and each man near it (its frame the
     /// rod's moved to the man's x), on the reference man's field: rod index and contact.
-    fn sdf_man_contacts(&self, search: &SdfSearch) -> Vec<(usize, ManContact)> {
-        let field = ManField::reference();
+    fn sdf_man_contacts(&self, search: &SdfSearch, field: &ManField) -> Vec<(usize, ManContact)> {
         let ball = self.world.bodies[self.ball].translation();
         let centre = DVec3::new(
             f64::from(ball.x),
@@ -911,6 +917,22 @@ impl Table {
             angle: r.angle,
             angle_vel: body.angvel().dot(r.axis),
         }
+    }
+
+    /// Puts rod `rod` (global rod order) at `state`: its slide (cm) and angle (rad, kept
+    /// unwrapped) and their velocities (cm/s, rad/s); its servo targets are left as they
+    /// are. With [`Table::set_ball`], a recorded state of the game to step on from.
+    pub fn set_rod(&mut self, rod: usize, state: RodState) {
+        let r = &mut self.rods[rod];
+        r.angle = state.angle;
+        let local = Pose::from_parts(
+            Vector::new(state.slide, 0.0, 0.0),
+            Rotation::from_rotation_x(state.angle),
+        );
+        let body = &mut self.world.bodies[r.body];
+        body.set_position(r.frame * local, true);
+        body.set_linvel(r.axis * state.slide_vel, true);
+        body.set_angvel(r.axis * state.angle_vel, true);
     }
 
     /// Ball centre, cm.

@@ -1,0 +1,178 @@
+//! The man's signed distance field exactly as the reference model's `sdflib` plugin holds
+//! it: sdflib's octree (`OctreeSdf(mesh, box, 8, 3, 1e-3, CONTINUITY)`), read off the
+//! plugin by `tools/sdf_contact_search.py octree` and shipped as data
+//! (`crates/env/data/man_octree.bin`; `crates/env/data/README.md`).
+//!
+//! The octree spans a cube (the mesh's box padded by a tenth of its largest side, made a
+//! cube about its centre), split into 8 × 8 × 8 cells, each split in eight again down to
+//! depth 8 where the field needs it. In a leaf of side `s` whose low corner is `c`, the
+//! distance is the tricubic `Σ a_ijk u^i v^j w^k` of `(u, v, w) = (p - c) / s`, and the
+//! plugin's gradient is that polynomial's gradient, normalised. A point is found in its
+//! leaf as the plugin finds it: the depth-3 cell holding it, then at each depth the child
+//! on the side of each half its place in the cell falls on (the upper half from 0.5 on).
+//!
+//! The file: the magic `FOOSOCT1`; the cells per side at depth 3 and the deepest depth
+//! (two `u32`); the cube's low corner (three `f32`, cm) and side (`f32`, cm); the pose of
+//! the field's frame in a man's frame and the man's box corners, as in
+//! [`crate::man_field`]'s file; the node count (`u32`) and the nodes (`u32` each; the
+//! first `8³` the depth-3 cells, x fastest): a leaf has the top bit set and its
+//! coefficients' index in the low bits, any other node is the index of its first child
+//! of eight (child `x + 2y + 4z` for the upper halves `x`, `y`, `z`); the leaf count
+//! (`u32`) and per leaf 64 `f32` coefficients `a_ijk`, `i` fastest. Little endian.
+
+use rapier3d::glamx::DVec3;
+
+/// The file's magic.
+pub const MAGIC: &[u8; 8] = b"FOOSOCT1";
+const LEAF: u32 = 1 << 31;
+
+/// The plugin's octree of the man's distance, in the field's frame (cm).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Octree {
+    /// The cube's low corner, cm.
+    low: DVec3,
+    /// The cube's side, cm.
+    side: f64,
+    /// Cells per side at the first depth.
+    cells: usize,
+    nodes: Vec<u32>,
+    coefficients: Vec<[f32; 64]>,
+}
+
+/// `(1, t, t², t³)` and its derivative.
+fn powers(t: f64) -> ([f64; 4], [f64; 4]) {
+    ([1.0, t, t * t, t * t * t], [0.0, 1.0, 2.0 * t, 3.0 * t * t])
+}
+
+impl Octree {
+    /// Reads an octree of `cells` cells a side at the first depth over the cube of low
+    /// `corner` and `side` (cm), from the rest of its file, `body`: the node count, the
+    /// nodes, the leaf count, the coefficients. Errors name what is wrong.
+    pub(crate) fn parse(
+        cells: u32,
+        corner: DVec3,
+        side: f64,
+        body: &[u8],
+    ) -> Result<Octree, String> {
+        let read_u32 = |at: usize| -> Result<u32, String> {
+            body.get(at..at + 4)
+                .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+                .ok_or_else(|| format!("man octree: the file ends at byte {at} of its body"))
+        };
+        let cells = cells as usize;
+        if cells == 0 || side.is_nan() || side <= 0.0 {
+            return Err(format!(
+                "man octree: {cells} cells a side over a cube of side {side}"
+            ));
+        }
+        let node_count = read_u32(0)? as usize;
+        let nodes: Vec<u32> = (0..node_count)
+            .map(|i| read_u32(4 + 4 * i))
+            .collect::<Result<_, _>>()?;
+        let leaves_at = 4 + 4 * node_count;
+        let leaf_count = read_u32(leaves_at)? as usize;
+        let data = &body[leaves_at + 4..];
+        if data.len() != 256 * leaf_count {
+            return Err(format!(
+                "man octree: {} bytes of coefficients for {leaf_count} leaves (256 each)",
+                data.len()
+            ));
+        }
+        let coefficients = data
+            .chunks_exact(256)
+            .map(|leaf| {
+                core::array::from_fn(|k| {
+                    f32::from_le_bytes([
+                        leaf[4 * k],
+                        leaf[4 * k + 1],
+                        leaf[4 * k + 2],
+                        leaf[4 * k + 3],
+                    ])
+                })
+            })
+            .collect();
+        let tree = Octree {
+            low: corner,
+            side,
+            cells,
+            nodes,
+            coefficients,
+        };
+        tree.check()?;
+        Ok(tree)
+    }
+
+    /// Every node points inside the file, and no walk from a first cell can loop.
+    fn check(&self) -> Result<(), String> {
+        if self.nodes.len() < self.cells.pow(3) {
+            return Err(format!(
+                "man octree: {} nodes, fewer than the {} first cells",
+                self.nodes.len(),
+                self.cells.pow(3)
+            ));
+        }
+        for (i, &node) in self.nodes.iter().enumerate() {
+            let bad = if node & LEAF != 0 {
+                (node & !LEAF) as usize >= self.coefficients.len()
+            } else {
+                (node as usize) <= i || node as usize + 8 > self.nodes.len()
+            };
+            if bad {
+                return Err(format!(
+                    "man octree: node {i} points outside the file ({node:#x})"
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether `point` (field frame, cm) lies in the cube.
+    pub fn contains(&self, point: DVec3) -> bool {
+        let u = (point - self.low) / self.side;
+        u.cmpge(DVec3::ZERO).all() && u.cmplt(DVec3::ONE).all()
+    }
+
+    /// The cube's nearest point to `point`.
+    pub fn clamp(&self, point: DVec3) -> DVec3 {
+        let top = self.low + DVec3::splat(self.side * (1.0 - 1e-12));
+        point.clamp(self.low, top)
+    }
+
+    /// The distance (cm) and the plugin's gradient (unit) at `point`, a point of the cube.
+    pub fn sample(&self, point: DVec3) -> (f64, DVec3) {
+        let cell = self.side / self.cells as f64;
+        let u = (point - self.low) / cell;
+        let first = u
+            .floor()
+            .clamp(DVec3::ZERO, DVec3::splat(self.cells as f64 - 1.0));
+        let mut frac = u - first;
+        let index = |v: f64| v as usize;
+        let mut node = self.nodes
+            [(index(first.z) * self.cells + index(first.y)) * self.cells + index(first.x)];
+        let mut size = cell;
+        while node & LEAF == 0 {
+            let half = |t: f64| usize::from(t > 0.5);
+            let child = half(frac.x) + 2 * half(frac.y) + 4 * half(frac.z);
+            node = self.nodes[node as usize + child];
+            frac = (2.0 * frac).fract();
+            size *= 0.5;
+        }
+        let a = &self.coefficients[(node & !LEAF) as usize];
+        let ((pu, du), (pv, dv), (pw, dw)) = (powers(frac.x), powers(frac.y), powers(frac.z));
+        let (mut value, mut gradient) = (0.0, DVec3::ZERO);
+        for k in 0..4 {
+            for j in 0..4 {
+                for i in 0..4 {
+                    let c = f64::from(a[i + 4 * j + 16 * k]);
+                    value += c * pu[i] * pv[j] * pw[k];
+                    gradient += c * DVec3::new(
+                        du[i] * pv[j] * pw[k],
+                        pu[i] * dv[j] * pw[k],
+                        pu[i] * pv[j] * dw[k],
+                    );
+                }
+            }
+        }
+        (value, (gradient / size).normalize_or_zero())
+    }
+}
