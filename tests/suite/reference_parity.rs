@@ -63,7 +63,7 @@ fn fixture() -> Option<Fixture> {
 
 fn reference() -> FoosballConfig {
     let config = FoosballConfig::preset(Preset::Reference);
-    assert_eq!(config.man_contacts, ManContacts::MujocoSdf);
+    assert_eq!(config.man_contacts, ManContacts::MujocoOctree);
     config
 }
 

@@ -213,8 +213,12 @@ fn the_side_scored_upon_serves_next() {
     use foosball_rl::env::geometry::Team;
     use foosball_rl::env::layout::BALL_POS;
     use foosball_rl::play::matches::{Kickoff, round_seed};
-    // Black's serve is yellow's turned 180 degrees about the centre.
-    let table = match_table(&FoosballConfig::default(), &MatchRules::default());
+    // Black's serve is yellow's turned 180 degrees about the centre. On the fifth
+    // `reference`, where the matches' goals below were counted (the rule is any game's).
+    let table = match_table(
+        &FoosballConfig::preset(Preset::ReferenceV5),
+        &MatchRules::default(),
+    );
     let ball = |side| {
         let mut env = FoosballEnv::new(table.clone()).unwrap();
         env.serve_on(side);

@@ -8,7 +8,9 @@
 //! `render_frames_per_s_84x84`, ...); the figures ending in `_locked_axes` are those of
 //! `rod_mount = "locked_axes"`; `env_steps_per_s_frame_skip_1_rigid_contacts` that of
 //! `man_contacts = "rapier"` (the `reference_v3` game's), `..._sdf_contacts` that of
-//! `man_contacts = "mujoco_sdf"` (the model's own contact search).
+//! `man_contacts = "mujoco_sdf"` (the model's own contact search on the sampled field,
+//! `reference_v5`'s) and `..._octree_contacts` that of `man_contacts = "mujoco_octree"`
+//! (the same search on the plugin's own octree, `reference`'s).
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -126,10 +128,15 @@ fn main() {
     }
 
     // The other contact models at frame skip 1: rapier's (`reference_v3`) and the model's
-    // own contact search on its man's field.
+    // own contact search on its man's sampled field and on its octree.
     for (man_contacts, name, figure) in [
         (ManContacts::Rapier, "rapier", "rigid_contacts"),
         (ManContacts::MujocoSdf, "mujoco_sdf", "sdf_contacts"),
+        (
+            ManContacts::MujocoOctree,
+            "mujoco_octree",
+            "octree_contacts",
+        ),
     ] {
         print!("man_contacts {name}: ");
         let per_s = env_loop(FoosballConfig {
