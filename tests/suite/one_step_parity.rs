@@ -27,6 +27,7 @@
 //!
 //! Run with `--nocapture` for the figures and the worst steps.
 
+use crate::step_response::Fixture;
 use foosball_rl::env::config::BallFrame;
 use foosball_rl::env::geometry::{BALL_RADIUS, FIELD_HALF_LENGTH, FIELD_HALF_WIDTH, RODS};
 use foosball_rl::env::layout::{
@@ -34,25 +35,8 @@ use foosball_rl::env::layout::{
 };
 use foosball_rl::env::table::RodState;
 use foosball_rl::env::{Env, FoosballConfig, FoosballEnv, Preset, ResetOptions};
-use serde::Deserialize;
 
 const FIXTURE: &str = "tests/data/model_episodes.json";
-
-#[derive(Deserialize)]
-struct Fixture {
-    cases: Vec<Case>,
-}
-
-#[derive(Deserialize)]
-struct Case {
-    name: String,
-    /// The ball's start, joint frame, cm.
-    ball: [f32; 2],
-    /// Yellow's action per step (project units).
-    actions: Vec<[f32; 8]>,
-    /// The observation at the start and after every step (38 values, joint frame).
-    obs: Vec<Vec<f64>>,
-}
 
 /// What one step of the fixture came to on our table.
 struct Step {

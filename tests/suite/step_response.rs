@@ -16,8 +16,8 @@
 //! - the first contact's step within 1 step of the reference's (the bar; the mesh's
 //!   leg prism meets the ball when the model's mesh man does).
 //!
-//! Each case runs twice: with the preset's contacts (`mujoco_sdf`: the model's own contact
-//! search on its man's distance field) and with `reference_v4`'s (`mujoco_soft`: one exact
+//! Each case runs twice: with the preset's contacts (`mujoco_octree`: the model's own contact
+//! search on its man's own octree) and with `reference_v4`'s (`mujoco_soft`: one exact
 //! contact per man collider).
 //!
 //! After the first contact the rods and the ball are not asserted: the men's shape and
@@ -34,21 +34,24 @@ use serde::Deserialize;
 
 use crate::common;
 
+/// Episodes played on the model, yellow's actions and the observations (the schema of
+/// `tools/transfer.py --record` too).
 #[derive(Deserialize)]
-struct Fixture {
-    dt: f64,
-    cases: Vec<Case>,
+pub(crate) struct Fixture {
+    /// Physics step, s.
+    pub(crate) dt: f64,
+    pub(crate) cases: Vec<Case>,
 }
 
 #[derive(Deserialize)]
-struct Case {
-    name: String,
+pub(crate) struct Case {
+    pub(crate) name: String,
     /// The ball's start, joint frame, cm.
-    ball: [f32; 2],
+    pub(crate) ball: [f32; 2],
     /// Yellow's action per step (project units).
-    actions: Vec<[f32; 8]>,
+    pub(crate) actions: Vec<[f32; 8]>,
     /// The observation at the start and after every step (38 values, joint frame).
-    obs: Vec<Vec<f64>>,
+    pub(crate) obs: Vec<Vec<f64>>,
 }
 
 /// One asserted quantity: where it sits in the observation, its relative bound and floor.
@@ -170,7 +173,7 @@ impl Worst {
 
 #[test]
 fn every_case_of_the_step_response_matches_the_reference_model_until_the_ball_is_touched() {
-    every_case_matches(ManContacts::MujocoSdf);
+    every_case_matches(ManContacts::MujocoOctree);
 }
 
 #[test]
