@@ -13,8 +13,9 @@
 //!   [`possession`]: ITSF's possession limits; [`starts`]: training episodes begun along
 //!   recorded ones (a reverse curriculum).
 //! - [`soft_contact`] and [`soft_stop`]: MuJoCo's soft constraints (the ball on the men,
-//!   the bumpers on the walls); [`man_field`] and [`sdf_search`]: the reference man's
-//!   distance field and MuJoCo's contact search on it; [`servo`]: the rods' position
+//!   the bumpers on the walls); [`man_field`], [`man_octree`] and [`sdf_search`]: the
+//!   reference man's distance field (its plugin's own octree, or sampled) and MuJoCo's
+//!   contact search on it; [`servo`]: the rods' position
 //!   servos.
 //! - [`config`]: the table's settings and presets, refused by key ([`config_error`]).
 //! - [`geometry`] and [`layout`]: the table's numbers and the observation/action index
