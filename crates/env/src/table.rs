@@ -188,8 +188,9 @@ pub struct Table {
     /// Under [`ManContacts::MujocoSoft`], the ball-man contacts this table computes itself
     /// (rapier's are then off).
     soft_contact: Option<SoftContact>,
-    /// Under [`ManContacts::MujocoSdf`], how those contacts are found: MuJoCo's search on
-    /// the reference man's field, not one exact contact per man collider.
+    /// Under [`ManContacts::MujocoSdf`] and [`ManContacts::MujocoOctree`], how those
+    /// contacts are found: MuJoCo's search on the reference man's field in that form, not
+    /// one exact contact per man collider.
     sdf_search: Option<(SdfSearch, FieldForm)>,
 }
 
@@ -788,7 +789,8 @@ impl Table {
     }
 
     /// The ball's contacts with the men as the reference model finds them, for
-    /// [`ManContacts::MujocoSdf`]: MuJoCo's SDF search between the ball, seen at the
+    /// [`ManContacts::MujocoSdf`] and [`ManContacts::MujocoOctree`] (`field` in the form
+    /// each reads): MuJoCo's SDF search between the ball, seen at the
     /// model's height ([`BallFrame::JOINT_ORIGIN`]), and each man near it (its frame the
     /// rod's moved to the man's x), on the reference man's field: rod index and contact.
     fn sdf_man_contacts(&self, search: &SdfSearch, field: &ManField) -> Vec<(usize, ManContact)> {
