@@ -1200,11 +1200,11 @@ mod tests {
             ours.table_difference(&other),
             Some((
                 "man_contacts".into(),
-                "\"mujoco_sdf\"".into(),
+                "\"mujoco_octree\"".into(),
                 "\"mujoco_soft\"".into()
             ))
         );
-        other.man_contacts = ManContacts::MujocoSdf;
+        other.man_contacts = ManContacts::MujocoOctree;
         assert_eq!(ours.table_difference(&other), None);
         // Rules, reward, starts and opponent are not the table.
         other.rules.stagnant_steps = 3;
