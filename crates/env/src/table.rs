@@ -161,7 +161,7 @@ fn copy_world(w: &PhysicsWorld) -> PhysicsWorld {
 }
 
 impl Clone for Table {
-    /// The table in its current state ([`copy_world`]).
+    /// The table in its current state (`copy_world`).
     fn clone(&self) -> Self {
         Self {
             world: copy_world(&self.world),
