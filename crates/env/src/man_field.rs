@@ -168,15 +168,7 @@ impl ManField {
     pub fn sample(&self, point: DVec3) -> (f64, DVec3) {
         match &self.shape {
             Shape::Grid(grid) => grid.sample(point),
-            Shape::Octree(tree) => {
-                if tree.contains(point) {
-                    tree.sample(point)
-                } else {
-                    let inside = tree.clamp(point);
-                    let (value, gradient) = tree.sample(inside);
-                    (value + point.distance(inside), gradient)
-                }
-            }
+            Shape::Octree(tree) => tree.sample(point),
         }
     }
 }

@@ -126,20 +126,18 @@ impl Octree {
         Ok(())
     }
 
-    /// Whether `point` (field frame, cm) lies in the cube.
-    pub fn contains(&self, point: DVec3) -> bool {
-        let u = (point - self.low) / self.side;
-        u.cmpge(DVec3::ZERO).all() && u.cmplt(DVec3::ONE).all()
-    }
-
-    /// The cube's nearest point to `point`.
-    pub fn clamp(&self, point: DVec3) -> DVec3 {
-        let top = self.low + DVec3::splat(self.side * (1.0 - 1e-12));
-        point.clamp(self.low, top)
-    }
-
-    /// The distance (cm) and the plugin's gradient (unit) at `point`, a point of the cube.
+    /// The distance (cm) and the plugin's gradient (unit) at `point` (field frame, cm).
+    /// Off the cube, the value at its nearest point plus the distance to it, and the
+    /// gradient there (the plugin's `boxProjection`).
     pub fn sample(&self, point: DVec3) -> (f64, DVec3) {
+        let top = self.low + DVec3::splat(self.side * (1.0 - 1e-12));
+        let inside = point.clamp(self.low, top);
+        let (value, gradient) = self.sample_inside(inside);
+        (value + point.distance(inside), gradient)
+    }
+
+    /// [`Octree::sample`] at a point of the cube.
+    fn sample_inside(&self, point: DVec3) -> (f64, DVec3) {
         let cell = self.side / self.cells as f64;
         let u = (point - self.low) / cell;
         let first = u
