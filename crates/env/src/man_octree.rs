@@ -130,14 +130,25 @@ impl Octree {
     /// Off the cube, the value at its nearest point plus the distance to it, and the
     /// gradient there (the plugin's `boxProjection`).
     pub fn sample(&self, point: DVec3) -> (f64, DVec3) {
+        self.sample_with::<true>(point)
+    }
+
+    /// [`Octree::sample`]'s distance alone (cm), bit for bit, without the gradient's
+    /// work: the contact search's line search needs only this.
+    pub fn distance(&self, point: DVec3) -> f64 {
+        self.sample_with::<false>(point).0
+    }
+
+    /// [`Octree::sample`], its gradient computed when `GRADIENT` (else zero).
+    fn sample_with<const GRADIENT: bool>(&self, point: DVec3) -> (f64, DVec3) {
         let top = self.low + DVec3::splat(self.side * (1.0 - 1e-12));
         let inside = point.clamp(self.low, top);
-        let (value, gradient) = self.sample_inside(inside);
+        let (value, gradient) = self.sample_inside::<GRADIENT>(inside);
         (value + point.distance(inside), gradient)
     }
 
-    /// [`Octree::sample`] at a point of the cube.
-    fn sample_inside(&self, point: DVec3) -> (f64, DVec3) {
+    /// [`Octree::sample_with`] at a point of the cube.
+    fn sample_inside<const GRADIENT: bool>(&self, point: DVec3) -> (f64, DVec3) {
         let cell = self.side / self.cells as f64;
         let u = (point - self.low) / cell;
         let first = u
@@ -152,7 +163,9 @@ impl Octree {
             let half = |t: f64| usize::from(t > 0.5);
             let child = half(frac.x) + 2 * half(frac.y) + 4 * half(frac.z);
             node = self.nodes[node as usize + child];
-            frac = (2.0 * frac).fract();
+            // `(2 frac).fract()` without libm's `trunc` call: `2 frac` is in [0, 2) and
+            // `x - 1` is exact there, so the same bits.
+            frac = (2.0 * frac).to_array().map(|t| if t >= 1.0 { t - 1.0 } else { t }).into();
             size *= 0.5;
         }
         let a = &self.coefficients[(node & !LEAF) as usize];
@@ -163,13 +176,18 @@ impl Octree {
                 for i in 0..4 {
                     let c = f64::from(a[i + 4 * j + 16 * k]);
                     value += c * pu[i] * pv[j] * pw[k];
-                    gradient += c * DVec3::new(
-                        du[i] * pv[j] * pw[k],
-                        pu[i] * dv[j] * pw[k],
-                        pu[i] * pv[j] * dw[k],
-                    );
+                    if GRADIENT {
+                        gradient += c * DVec3::new(
+                            du[i] * pv[j] * pw[k],
+                            pu[i] * dv[j] * pw[k],
+                            pu[i] * pv[j] * dw[k],
+                        );
+                    }
                 }
             }
+        }
+        if !GRADIENT {
+            return (value, DVec3::ZERO);
         }
         (value, (gradient / size).normalize_or_zero())
     }

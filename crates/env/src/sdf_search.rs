@@ -67,8 +67,15 @@ impl Pair<'_> {
         (man, ball)
     }
 
+    /// The objective at `x` alone (the line search's), the same value as
+    /// [`Pair::value_and_gradient`]'s without the gradients' work.
     fn value(&self, objective: Objective, x: DVec3) -> f64 {
-        self.value_and_gradient(objective, x).0
+        let a = self.field.distance(x);
+        let b = (self.rotation * x + self.position - self.centre).length() - self.radius;
+        match objective {
+            Objective::Collision => a + b + a.max(b).abs(),
+            Objective::Intersection => a.max(b),
+        }
     }
 
     /// The objective at `x` and its gradient, from one sample of each distance.
