@@ -165,7 +165,10 @@ impl Octree {
             node = self.nodes[node as usize + child];
             // `(2 frac).fract()` without libm's `trunc` call: `2 frac` is in [0, 2) and
             // `x - 1` is exact there, so the same bits.
-            frac = (2.0 * frac).to_array().map(|t| if t >= 1.0 { t - 1.0 } else { t }).into();
+            frac = (2.0 * frac)
+                .to_array()
+                .map(|t| if t >= 1.0 { t - 1.0 } else { t })
+                .into();
             size *= 0.5;
         }
         let a = &self.coefficients[(node & !LEAF) as usize];
