@@ -55,10 +55,15 @@ struct Pair<'a> {
 }
 
 impl Pair<'_> {
+    /// The ball's centre to `x` (the field's frame), in the world.
+    fn from_centre(&self, x: DVec3) -> DVec3 {
+        self.rotation * x + self.position - self.centre
+    }
+
     /// The man's distance and gradient, the ball's, at `x` (the field's frame).
     fn distances(&self, x: DVec3) -> ((f64, DVec3), (f64, DVec3)) {
         let man = self.field.sample(x);
-        let from_centre = self.rotation * x + self.position - self.centre;
+        let from_centre = self.from_centre(x);
         let norm = from_centre.length();
         let ball = (
             norm - self.radius,
@@ -67,28 +72,31 @@ impl Pair<'_> {
         (man, ball)
     }
 
-    /// The objective at `x` alone (the line search's), the same value as
-    /// [`Pair::value_and_gradient`]'s without the gradients' work.
-    fn value(&self, objective: Objective, x: DVec3) -> f64 {
-        let a = self.field.distance(x);
-        let b = (self.rotation * x + self.position - self.centre).length() - self.radius;
+    /// The objective of the man's distance `a` and the ball's `b`.
+    fn combine(objective: Objective, a: f64, b: f64) -> f64 {
         match objective {
             Objective::Collision => a + b + a.max(b).abs(),
             Objective::Intersection => a.max(b),
         }
     }
 
+    /// The objective at `x` alone (the line search's), the same value as
+    /// [`Pair::value_and_gradient`]'s without the gradients' work.
+    fn value(&self, objective: Objective, x: DVec3) -> f64 {
+        let a = self.field.distance(x);
+        let b = self.from_centre(x).length() - self.radius;
+        Self::combine(objective, a, b)
+    }
+
     /// The objective at `x` and its gradient, from one sample of each distance.
     fn value_and_gradient(&self, objective: Objective, x: DVec3) -> (f64, DVec3) {
         let ((a, ga), (b, gb)) = self.distances(x);
         let larger = if a > b { ga } else { gb };
-        match objective {
-            Objective::Collision => (
-                a + b + a.max(b).abs(),
-                ga + gb + larger * if a.max(b) > 0.0 { 1.0 } else { -1.0 },
-            ),
-            Objective::Intersection => (a.max(b), larger),
-        }
+        let gradient = match objective {
+            Objective::Collision => ga + gb + larger * if a.max(b) > 0.0 { 1.0 } else { -1.0 },
+            Objective::Intersection => larger,
+        };
+        (Self::combine(objective, a, b), gradient)
     }
 
     /// MuJoCo's `stepGradient`: `steps` steps of backtracking line search (Armijo,
