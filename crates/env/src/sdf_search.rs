@@ -56,14 +56,14 @@ struct Pair<'a> {
 
 impl Pair<'_> {
     /// The ball's centre to `x` (the field's frame), in the world.
-    fn from_centre(&self, x: DVec3) -> DVec3 {
+    fn ball_to(&self, x: DVec3) -> DVec3 {
         self.rotation * x + self.position - self.centre
     }
 
     /// The man's distance and gradient, the ball's, at `x` (the field's frame).
     fn distances(&self, x: DVec3) -> ((f64, DVec3), (f64, DVec3)) {
         let man = self.field.sample(x);
-        let from_centre = self.from_centre(x);
+        let from_centre = self.ball_to(x);
         let norm = from_centre.length();
         let ball = (
             norm - self.radius,
@@ -84,7 +84,7 @@ impl Pair<'_> {
     /// [`Pair::value_and_gradient`]'s without the gradients' work.
     fn value(&self, objective: Objective, x: DVec3) -> f64 {
         let a = self.field.distance(x);
-        let b = self.from_centre(x).length() - self.radius;
+        let b = self.ball_to(x).length() - self.radius;
         Self::combine(objective, a, b)
     }
 
