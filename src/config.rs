@@ -978,6 +978,17 @@ impl RunConfig {
                 ));
             }
         }
+        if let AlgoConfig::Ppo(ppo) = &self.algorithm
+            && let Some(teacher) = ppo.kickstart.teacher
+        {
+            let refuse = |why: &str| Err(ConfigError::new("ppo.kickstart.teacher", why));
+            if teacher == OpponentKind::Random {
+                return refuse("`random` draws its actions: a teacher acts on the state alone");
+            }
+            if self.env.observation.kind != ObservationKind::State {
+                return refuse("reads the 38-dim state: this run observes images");
+            }
+        }
         if let Some(n) = &self.normalize {
             n.validate().map_err(|e| e.under("normalize"))?;
             if n.obs && self.env.observation.kind != ObservationKind::State {

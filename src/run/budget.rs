@@ -85,6 +85,8 @@ pub fn time_budget(config: &RunConfig) -> Result<TimeBudget, TrainError> {
             terminated: &no,
             truncated: &no,
             absorbing: vec![false],
+            // Labels for a run with a teacher: the probe times the update, whatever it learns.
+            teacher: Some(&actions),
         });
         let before = (Instant::now(), agent.gradient_steps());
         agent.update(1.0);

@@ -29,6 +29,8 @@
 //!   (`protocol.demonstrations`);
 //! - [`curriculum`]: training episodes begun along a teacher's (`[curriculum]`);
 //! - [`dagger`]: the planner labelling states the learner reaches (`[dagger]`);
+//! - [`kickstart`]: a built-in player labelling every state PPO acts on
+//!   (`[ppo.kickstart]`);
 //! - [`log`]: training logs (CSV and TensorBoard);
 //! - [`budget`]: memory and time a run will need, told before it starts;
 //! - [`lock`]: one process at a time trains a run directory;
@@ -41,6 +43,7 @@ pub mod dagger;
 pub mod demonstrations;
 pub mod init;
 pub mod interrupt;
+pub mod kickstart;
 pub mod lock;
 pub mod log;
 pub mod train;

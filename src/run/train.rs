@@ -8,6 +8,7 @@ use super::dagger::Dagger;
 use super::demonstrations::give_demonstrations;
 use super::init::init_networks;
 use super::interrupt;
+use super::kickstart::teacher_labels;
 use super::lock::{LockError, RunLock};
 use super::log::{CSV_FILES, RunLog, Speed};
 use crate::agents::{build_agent, device};
@@ -275,6 +276,9 @@ pub fn train(
         };
         let envs = VecEnv::new(envs, threads)?;
         let mut collector = Collector::with_seeds(envs, &restart_seeds(p.seed, done, n));
+        if let Some(labels) = teacher_labels(config) {
+            collector = collector.with_teacher(labels);
+        }
         let total = p.total_env_steps();
         let progress = |env_steps, event| Progress {
             env_steps,

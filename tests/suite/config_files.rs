@@ -158,6 +158,23 @@ fn malformed_files_and_wrong_sections_are_refused() {
             "{e}"
         );
     }
+    for (teacher, why) in [
+        ("random", "`random` draws its actions"),
+        (
+            "shooter\"\n[env.observation]\nkind = \"image",
+            "this run observes images",
+        ),
+    ] {
+        let e = error(&format!(
+            "algo = \"ppo\"\n[ppo.kickstart]\nteacher = \"{teacher}\"\n"
+        ));
+        assert!(
+            e.contains("ppo.kickstart.teacher: ") && e.contains(why),
+            "{e}"
+        );
+    }
+    let e = error("algo = \"ppo\"\n[ppo.kickstart]\nteacher = \"shooter\"\ncoef_end = -1\n");
+    assert!(e.contains("ppo.kickstart.coef_end"), "{e}");
     let e = error("algo = \"sac\"\n[ppo]\nn_steps = 8\n");
     assert!(e.contains("ppo: section for another algorithm"), "{e}");
     let missing = RunConfig::load(Path::new("no/such.toml")).unwrap_err();

@@ -144,6 +144,13 @@ fn a_self_imitating_ppo_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrup
     stopped_mid_epoch_and_resumed("ppo", sil, Some(Backend::Host));
 }
 
+/// A kickstarted PPO's teacher labels (the rollout's column) are part of the checkpoint.
+#[test]
+fn a_kickstarted_ppo_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_one() {
+    let kickstart = "[ppo.kickstart]\nteacher = \"shooter\"\ncoef_start = 2.0\n";
+    stopped_mid_epoch_and_resumed("ppo", kickstart, Some(Backend::Host));
+}
+
 #[test]
 fn a_sac_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_one() {
     stopped_mid_epoch_and_resumed("sac", "", None);

@@ -52,6 +52,7 @@ fn feed(agent: &mut dyn Agent, n: usize, rng: &mut ChaCha8Rng) {
             terminated: &[false],
             truncated: &[false],
             absorbing: vec![false],
+            teacher: None,
         });
     }
 }

@@ -39,6 +39,9 @@ pub struct Experience<'a> {
     /// The state reached is absorbing (the env's `StepInfo::absorbing`), `[n_envs]`;
     /// read only where `terminated`.
     pub absorbing: Vec<bool>,
+    /// A teacher's action on each observation acted on, `[n_envs, action_dim]` in the
+    /// env's action space, where the run has a teacher ([`crate::kickstart`]).
+    pub teacher: Option<&'a [f32]>,
 }
 
 impl Experience<'_> {
@@ -90,6 +93,7 @@ impl MappedObs {
             terminated: step.terminated,
             truncated: step.truncated,
             absorbing: step.absorbing.clone(),
+            teacher: step.teacher,
         }
     }
 }

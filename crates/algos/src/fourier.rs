@@ -315,6 +315,7 @@ mod tests {
             terminated: &[false, true],
             truncated: &[false, false],
             absorbing: vec![false, false],
+            teacher: None,
         });
         let seen = log.lock().unwrap();
         assert_eq!(seen[0].0, agent.features(&obs));

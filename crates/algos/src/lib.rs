@@ -7,7 +7,8 @@
 //! observation around any learner (`fourier`), exploration noise correlated over an
 //! episode's steps (`correlated_noise`: PPO's `noise_correlation`, TD3's
 //! `action_noise_correlation`), PPO's self-imitation of its own past episodes
-//! (`self_imitation`), and the [`Agent`] shape through which one training loop
+//! (`self_imitation`), PPO's cloning term towards a teacher's labels of its own states
+//! (`kickstart`), and the [`Agent`] shape through which one training loop
 //! drives all three.
 //!
 //! Each algorithm file states its update equations at the top (CleanRL style); the
@@ -19,6 +20,7 @@ pub mod correlated_noise;
 pub mod critics;
 pub mod demonstrations;
 pub mod fourier;
+pub mod kickstart;
 pub mod network_path;
 pub mod normalize;
 pub mod off_policy;
@@ -43,6 +45,7 @@ pub use agent::{ActMode, Agent, AgentError, Experience, Metrics};
 pub use config::{ConfigError, NetConfig, OffPolicyConfig};
 pub use demonstrations::Demonstration;
 pub use fourier::{FourierConfig, FourierFeatures};
+pub use kickstart::KickstartConfig;
 pub use normalize::{NormalizeConfig, Normalized};
 pub use ppo::{Ppo, PpoConfig};
 pub use replay::{ReplayBatch, ReplayBuffer};

@@ -417,6 +417,7 @@ mod tests {
             terminated: &[false, true],
             truncated: &[false, false],
             absorbing: vec![false, false],
+            teacher: None,
         });
     }
 

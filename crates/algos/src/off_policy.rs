@@ -389,6 +389,7 @@ mod tests {
                 terminated: &[false],
                 truncated: &[false],
                 absorbing: vec![false],
+                teacher: None,
             });
         }
         agent.update(1.0);
@@ -434,6 +435,7 @@ mod tests {
                     terminated: &[terminated],
                     truncated: &[false],
                     absorbing: vec![absorbing],
+                    teacher: None,
                 });
             }
             agent.update(1.0);
@@ -509,6 +511,7 @@ mod tests {
             terminated: &[ended.0],
             truncated: &[ended.1],
             absorbing: vec![false],
+            teacher: None,
         });
     }
 

@@ -13,7 +13,9 @@
 //! Exploring actions are `mean + exp(log_std) x` with `x` standard normal, drawn anew
 //! each step (SB3) or an AR(1) process over the episode (`noise_correlation`).
 //! Under `[ppo.self_imitation]` each rollout's update is followed by self-imitation steps
-//! on the learner's own past episodes ([`crate::self_imitation`]).
+//! on the learner's own past episodes ([`crate::self_imitation`]). Under
+//! `[ppo.kickstart]` each minibatch's loss adds a cloning term pulling the policy's means
+//! towards a teacher's actions on the same states ([`crate::kickstart`]).
 //!
 //! The minibatch step computes the loss's gradients with respect to the networks'
 //! outputs (`dL/d log pi = ratio dL/d ratio` with `dL/d ratio = -A / n` where the
@@ -25,6 +27,7 @@
 use crate::agent::{ActMode, Agent, AgentError, Experience, Metrics};
 use crate::config::{ConfigError, DEFAULT_GAMMA, NetConfig, check_gamma, ensure};
 use crate::correlated_noise::CorrelatedNoise;
+use crate::kickstart::{KickstartConfig, cloning_loss};
 use crate::network_path::OnPath;
 pub use crate::ppo_networks::ActorCritic;
 use crate::ppo_networks::{BurnNetworks, Evaluation, HostNetworks, PpoNetworks};
@@ -82,6 +85,8 @@ pub struct PpoConfig {
     pub bounds_soft_bound: f32,
     /// Self-imitation of past episodes after each update (Oh et al. 2018; off by default).
     pub self_imitation: SelfImitationConfig,
+    /// A teacher's actions cloned beside the return (Schmitt et al. 2018; off by default).
+    pub kickstart: KickstartConfig,
 }
 
 impl Default for PpoConfig {
@@ -113,6 +118,7 @@ impl Default for PpoConfig {
             bounds_loss_coef: 0.0,
             bounds_soft_bound: 1.1,
             self_imitation: SelfImitationConfig::default(),
+            kickstart: KickstartConfig::default(),
         }
     }
 }
@@ -169,7 +175,8 @@ impl PpoConfig {
         )?;
         self.self_imitation
             .validate()
-            .map_err(|e| e.under("self_imitation"))
+            .map_err(|e| e.under("self_imitation"))?;
+        self.kickstart.validate().map_err(|e| e.under("kickstart"))
     }
 }
 
@@ -273,13 +280,15 @@ pub struct Ppo {
 
 /// One minibatch of a rollout, host values: observations `[batch, obs_dim]`, actions
 /// `[batch, action_dim]`, advantages (normalised when asked), old `log pi` and returns
-/// `[batch]`.
+/// `[batch]`, and where a teacher labels the rollout its actions `[batch, action_dim]`
+/// with the cloning term's weight.
 struct Minibatch {
     obs: Vec<f32>,
     actions: Vec<f32>,
     advantages: Vec<f32>,
     old_log_probs: Vec<f32>,
     returns: Vec<f32>,
+    teacher: Option<(Vec<f32>, f32)>,
 }
 
 /// One gradient step on `mb` (the module docs' loss) on either path; `None` when the KL
@@ -315,16 +324,19 @@ fn minibatch_step<N: PpoNetworks>(
     let value_loss = r.mean(&r.square(&error));
     let d_values = r.affine(&error, 2.0 * c.vf_coef * per_row, 0.0);
     let d_entropy = r.affine(&entropy, 0.0, -c.ent_coef * per_row);
-    let bounds = (c.bounds_loss_coef > 0.0).then(|| {
-        bound_loss(
-            &nets.kept_means(),
-            n,
-            c.bounds_loss_coef,
-            c.bounds_soft_bound,
-        )
-    });
-    let d_means = bounds.as_ref().map(|(_, d)| &d[..]);
-    let report = nets.step(&s.d_log_prob, &d_entropy, &d_values, d_means, lr);
+    let means = (c.bounds_loss_coef > 0.0 || mb.teacher.is_some()).then(|| nets.kept_means());
+    let bounds = means
+        .as_ref()
+        .filter(|_| c.bounds_loss_coef > 0.0)
+        .map(|m| bound_loss(m, n, c.bounds_loss_coef, c.bounds_soft_bound));
+    let cloning = (means.as_ref().zip(mb.teacher.as_ref()))
+        .map(|(m, (labels, coef))| cloning_loss(m, labels, n, *coef));
+    let d_means = match (&bounds, &cloning) {
+        (Some((_, b)), Some((_, k))) => Some(b.iter().zip(k).map(|(b, k)| b + k).collect()),
+        (Some((_, d)), None) | (None, Some((_, d))) => Some(d.clone()),
+        (None, None) => None,
+    };
+    let report = nets.step(&s.d_log_prob, &d_entropy, &d_values, d_means.as_deref(), lr);
     let mut metrics = vec![
         ("policy_loss", r.scalar(&s.loss)),
         ("value_loss", r.scalar(&value_loss)),
@@ -335,6 +347,10 @@ fn minibatch_step<N: PpoNetworks>(
     ];
     if let Some((loss, _)) = bounds {
         metrics.push(("bounds_loss", f64::from(loss).into()));
+    }
+    if let (Some((loss, _)), Some((_, coef))) = (cloning, &mb.teacher) {
+        metrics.push(("kickstart_loss", f64::from(loss).into()));
+        metrics.push(("kickstart_coef", f64::from(*coef).into()));
     }
     Some(Metrics(metrics))
 }
@@ -444,7 +460,9 @@ impl Ppo {
         }
     }
 
-    fn train(&mut self, lr: f64) -> Metrics {
+    /// PPO's epochs on the rollout at learning rate `lr`, the cloning term (where a teacher
+    /// labels the rollout) weighted `kickstart`.
+    fn train(&mut self, lr: f64, kickstart: f32) -> Metrics {
         let c = self.config.clone();
         let (o, a) = (self.obs_dim, self.action_dim);
         let last_obs = self.last_obs.clone();
@@ -473,6 +491,7 @@ impl Ppo {
                     advantages: gather(&advantages, 1),
                     old_log_probs: gather(&r.log_probs, 1),
                     returns: gather(&returns, 1),
+                    teacher: (!r.teacher.is_empty()).then(|| (gather(&r.teacher, a), kickstart)),
                 };
                 if c.normalize_advantage && mb.advantages.len() > 1 {
                     mb.advantages = normalize_advantages(&mb.advantages);
@@ -604,6 +623,12 @@ impl Agent for Ppo {
         r.episode_starts.extend_from_slice(&self.episode_starts);
         r.values.extend_from_slice(&pending.values);
         r.log_probs.extend_from_slice(&pending.log_probs);
+        if self.config.kickstart.enabled() {
+            let labels = step
+                .teacher
+                .expect("a run with [ppo.kickstart] hands its teacher's labels");
+            r.teacher.extend_from_slice(labels);
+        }
         let dones: Vec<f32> = (0..n)
             .map(|i| {
                 if step.terminated[i] || step.truncated[i] {
@@ -633,7 +658,8 @@ impl Agent for Ppo {
             return None;
         }
         let lr = self.config.net.lr.at(progress_remaining);
-        Some(self.train(lr))
+        let kickstart = self.config.kickstart.coef_at(progress_remaining);
+        Some(self.train(lr, kickstart))
     }
 
     fn env_steps(&self) -> u64 {
@@ -718,8 +744,9 @@ mod tests {
     }
 
     /// A minibatch of `n` rows for `(o, a)` networks: old log-probabilities that put
-    /// ratios on both sides of the clip range, advantages of both signs.
-    fn minibatch(n: usize, (o, a): (usize, usize), seed: u64) -> Minibatch {
+    /// ratios on both sides of the clip range, advantages of both signs; teacher's labels
+    /// in `[-1, 1]` weighted `kickstart` where given.
+    fn minibatch(n: usize, (o, a): (usize, usize), seed: u64, kickstart: Option<f32>) -> Minibatch {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let mut normal = |k: usize| standard_normal(k, 1, &mut rng);
         Minibatch {
@@ -728,6 +755,7 @@ mod tests {
             advantages: normalize_advantages(&normal(n)),
             old_log_probs: normal(n).iter().map(|x| 0.3 * x - 1.0 * a as f32).collect(),
             returns: normal(n).iter().map(|x| 2.0 * x).collect(),
+            teacher: kickstart.map(|coef| (normal(n * a).iter().map(|x| x.tanh()).collect(), coef)),
         }
     }
 
@@ -751,16 +779,21 @@ mod tests {
         let policy_loss = (adv * ratio).min_pair(clipped).mean().neg();
         let value_loss = (vector(&mb.returns, &dev) - values).square().mean();
         let b = c.bounds_soft_bound;
-        let past = mean.clone().sub_scalar(b).clamp_min(0.0) + mean.add_scalar(b).clamp_max(0.0);
+        let past =
+            mean.clone().sub_scalar(b).clamp_min(0.0) + mean.clone().add_scalar(b).clamp_max(0.0);
         let bounds = past
             .square()
             .sum_dim(1)
             .mean()
             .mul_scalar(c.bounds_loss_coef);
-        let loss = policy_loss
+        let mut loss = policy_loss
             + entropy.mean().neg().mul_scalar(c.ent_coef)
             + value_loss.mul_scalar(c.vf_coef)
             + bounds;
+        if let Some((labels, coef)) = &mb.teacher {
+            let cloning = (mean - matrix(labels, a, &dev)).square().sum_dim(1).mean();
+            loss = loss + cloning.mul_scalar(*coef);
+        }
         let mut adam = Adam::new(c.net.adam.clone());
         adam.step_in_place(&mut m, &mut loss.backward(), 10.0);
         m
@@ -790,7 +823,8 @@ mod tests {
         gradient_revealing(&mut c.net);
         c.net.hidden = hidden;
         c.ent_coef = 0.01;
-        let mb = minibatch(64, (o, a), 9);
+        let kickstart = c.kickstart.enabled().then_some(c.kickstart.coef_start);
+        let mb = minibatch(64, (o, a), 9, kickstart);
         let start = Ppo::new(o, a, c.clone(), 3, &device()).model();
         let expected = flat(&reference_step(start.clone(), &c, (o, a), &mb));
         let adam = || Adam::new(c.net.adam.clone());
@@ -818,8 +852,22 @@ mod tests {
                 bounds_soft_bound: bound,
                 ..PpoConfig::default()
             };
-            check_against_autodiff(bounded, (38, 8), vec![64, 64]);
+            check_against_autodiff(bounded.clone(), (38, 8), vec![64, 64]);
+            // ... and beside a teacher's cloning term.
+            let kickstarted = PpoConfig {
+                kickstart: KickstartConfig {
+                    teacher: Some(foosball_env::OpponentKind::Shooter),
+                    coef_start: 2.0,
+                    coef_end: 0.0,
+                },
+                ..bounded
+            };
+            check_against_autodiff(kickstarted, (38, 8), vec![64, 64]);
         }
+        // The cloning term alone.
+        let mut kickstarted = PpoConfig::default();
+        kickstarted.kickstart.teacher = Some(foosball_env::OpponentKind::Dribbler);
+        check_against_autodiff(kickstarted, (38, 8), vec![64, 64]);
     }
 
     /// One self-imitation step as the paper writes its loss, gradients by Burn's autodiff
@@ -857,7 +905,7 @@ mod tests {
             ..SelfImitationConfig::default()
         };
         let (o, a) = (38, 8);
-        let mb = minibatch(64, (o, a), 9);
+        let mb = minibatch(64, (o, a), 9, None);
         let rows = self_imitation::Batch {
             obs: mb.obs,
             actions: mb.actions,
@@ -963,8 +1011,8 @@ mod tests {
     }
 
     /// A 3 -> 2 learner of settings `c` driven through `rounds` rollouts on made-up
-    /// observations and rewards (env 0's episodes 11 steps long), and each update's
-    /// metrics.
+    /// observations and rewards (env 0's episodes 11 steps long; [`teacher`] labels every
+    /// row), and each update's metrics.
     fn drive(c: PpoConfig, host_path: bool, rounds: usize) -> (Ppo, Vec<Vec<(&'static str, f64)>>) {
         let mut ppo = Ppo::new(3, 2, c, 7, &device());
         if host_path {
@@ -979,6 +1027,7 @@ mod tests {
                 let actions = ppo.act(&obs, ActMode::Explore);
                 let rewards: Vec<f32> = actions.chunks(2).map(|a| -a[0] * a[0] + a[1]).collect();
                 let done = k % 11 == 10;
+                let labels = teacher(&obs);
                 ppo.observe(&Experience {
                     obs: &obs,
                     actions: &actions,
@@ -988,6 +1037,7 @@ mod tests {
                     terminated: &[done, false],
                     truncated: &[false, false],
                     absorbing: vec![false, false],
+                    teacher: Some(&labels),
                 });
                 k += 1;
                 if let Some(m) = ppo.update(1.0) {
@@ -997,6 +1047,59 @@ mod tests {
             }
         }
         (ppo, updates)
+    }
+
+    /// The made-up teacher of [`drive`]'s 3 -> 2 rows: `(0.6 o_0, 0.3 o_1 - 0.5)`, against
+    /// the rewards' pull towards `(0, 1)`.
+    fn teacher(obs: &[f32]) -> Vec<f32> {
+        obs.chunks(3)
+            .flat_map(|o| [0.6 * o[0], 0.3 * o[1] - 0.5])
+            .collect()
+    }
+
+    /// Kickstarted, the policy's means come to the teacher's actions on states it never
+    /// saw (a tenth of the squared error of PPO alone, which follows the rewards), the
+    /// logged cloning loss falls and its weight follows the schedule; off, nothing of it
+    /// runs.
+    #[test]
+    fn a_kickstarted_policy_clones_its_teacher() {
+        let value =
+            |m: &[(&str, f64)], name: &str| m.iter().find(|(n, _)| *n == name).map(|(_, v)| *v);
+        let error = |ppo: &mut Ppo| {
+            let obs: Vec<f32> = (0..300).map(|i| (i as f32 * 0.731 + 0.2).sin()).collect();
+            let means = ppo.act(&obs, ActMode::Deterministic);
+            let labels = teacher(&obs);
+            means
+                .iter()
+                .zip(&labels)
+                .map(|(m, a)| (m - a).powi(2))
+                .sum::<f32>()
+                / 100.0
+        };
+        let mut c = small();
+        c.kickstart = KickstartConfig {
+            teacher: Some(foosball_env::OpponentKind::Shooter),
+            coef_start: 20.0,
+            coef_end: 20.0,
+        };
+        let (mut cloned, updates) = drive(c, true, 40);
+        let (mut plain, plain_updates) = drive(small(), true, 40);
+        let (e_cloned, e_plain) = (error(&mut cloned), error(&mut plain));
+        assert!(
+            e_cloned < 0.02 && e_cloned < 0.1 * e_plain,
+            "kickstarted {e_cloned}, alone {e_plain}"
+        );
+        let loss: Vec<f64> = updates
+            .iter()
+            .map(|m| value(m, "kickstart_loss").unwrap())
+            .collect();
+        assert!(loss[loss.len() - 1] < 0.1 * loss[0], "{loss:?}");
+        assert_eq!(value(&updates[0], "kickstart_coef"), Some(20.0));
+        assert!(
+            plain_updates
+                .iter()
+                .all(|m| value(m, "kickstart_loss").is_none())
+        );
     }
 
     /// With self-imitation on, env 0's finished episodes fill the buffer and, once it

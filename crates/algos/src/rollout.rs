@@ -14,13 +14,15 @@ pub struct Episode {
     pub len: u64,
 }
 
-/// Training-side state of a vec-env: the observations to act on next and the running
-/// returns of the episodes in progress.
+/// Training-side state of a vec-env: the observations to act on next, the running
+/// returns of the episodes in progress and, where the run has one, the teacher that
+/// labels each observation acted on ([`Experience::teacher`]).
 pub struct Collector<E: Env> {
     envs: VecEnv<E>,
     obs: Vec<f32>,
     returns: Vec<f64>,
     lengths: Vec<u64>,
+    teacher: Option<Box<BatchPolicy<'static>>>,
 }
 
 impl<E: Env> Collector<E> {
@@ -43,6 +45,16 @@ impl<E: Env> Collector<E> {
             obs,
             returns: vec![0.0; n],
             lengths: vec![0; n],
+            teacher: None,
+        }
+    }
+
+    /// The same collector with `teacher` labelling every observation acted on
+    /// (`[n_envs, obs_dim]` as the envs return them in, `[n_envs, action_dim]` out).
+    pub fn with_teacher(self, teacher: Box<BatchPolicy<'static>>) -> Self {
+        Self {
+            teacher: Some(teacher),
+            ..self
         }
     }
 
@@ -77,6 +89,7 @@ impl<E: Env> Collector<E> {
         mut on_episode: impl FnMut(usize, Episode, &E::Info),
     ) -> Result<Option<Metrics>, VecEnvError> {
         let actions = agent.act(&self.obs, ActMode::Explore);
+        let labels = self.teacher.as_mut().map(|t| t(&self.obs));
         let step = match restart {
             None => self.envs.step(&actions)?,
             Some(seeds) => self.envs.step_then_restart(&actions, seeds)?,
@@ -91,6 +104,7 @@ impl<E: Env> Collector<E> {
             terminated: step.terminated,
             truncated: step.truncated,
             absorbing: step.infos.iter().map(StepInfo::absorbing).collect(),
+            teacher: labels.as_deref(),
         };
         agent.observe(&experience);
         for i in 0..n {

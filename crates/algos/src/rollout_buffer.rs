@@ -63,6 +63,9 @@ pub struct RolloutBuffer {
     pub values: Vec<f32>,
     /// `log pi(action|obs)` at collection time, `[len]`.
     pub log_probs: Vec<f32>,
+    /// A teacher's action on each observation, `[len, action_dim]`; empty without a
+    /// teacher ([`crate::kickstart`]).
+    pub teacher: Vec<f32>,
 }
 
 impl RolloutBuffer {
@@ -84,7 +87,7 @@ impl RolloutBuffer {
     }
 
     /// The columns, in [`RolloutBuffer::COLUMNS`] order.
-    fn columns(&self) -> [&[f32]; 6] {
+    fn columns(&self) -> [&[f32]; 7] {
         [
             &self.obs,
             &self.actions,
@@ -92,10 +95,11 @@ impl RolloutBuffer {
             &self.episode_starts,
             &self.values,
             &self.log_probs,
+            &self.teacher,
         ]
     }
 
-    fn columns_mut(&mut self) -> [&mut Vec<f32>; 6] {
+    fn columns_mut(&mut self) -> [&mut Vec<f32>; 7] {
         [
             &mut self.obs,
             &mut self.actions,
@@ -103,17 +107,19 @@ impl RolloutBuffer {
             &mut self.episode_starts,
             &mut self.values,
             &mut self.log_probs,
+            &mut self.teacher,
         ]
     }
 
     /// The columns' names in saved state.
-    const COLUMNS: [&str; 6] = [
+    const COLUMNS: [&str; 7] = [
         "obs",
         "actions",
         "rewards",
         "episode_starts",
         "values",
         "log_probs",
+        "teacher",
     ];
 
     /// Stores the rows collected so far under `prefix` (borrowed, not copied).
@@ -123,10 +129,16 @@ impl RolloutBuffer {
         }
     }
 
-    /// Restores what [`RolloutBuffer::save_state`] stored under `prefix`.
+    /// Restores what [`RolloutBuffer::save_state`] stored under `prefix`; a checkpoint
+    /// written before the teacher's column existed holds no labels.
     pub fn load_state(&mut self, snap: &Snapshot<'_>, prefix: &str) -> Result<(), SnapshotError> {
         for (name, column) in Self::COLUMNS.iter().zip(self.columns_mut()) {
-            *column = snap.f32s(&format!("{prefix}.{name}"))?.to_vec();
+            let key = format!("{prefix}.{name}");
+            *column = if *name == "teacher" && !snap.contains(&key) {
+                Vec::new()
+            } else {
+                snap.f32s(&key)?.to_vec()
+            };
         }
         Ok(())
     }

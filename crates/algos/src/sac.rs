@@ -600,6 +600,7 @@ mod tests {
                 terminated: &[false],
                 truncated: &[false],
                 absorbing: vec![false],
+                teacher: None,
             });
             agent.update(1.0);
         }

@@ -235,6 +235,7 @@ fn explore_step(agent: &mut impl Agent, done: bool) -> Vec<f32> {
         terminated: &[done, false],
         truncated: &[false, false],
         absorbing: vec![false, false],
+        teacher: None,
     });
     actions
 }

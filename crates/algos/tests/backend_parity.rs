@@ -66,6 +66,7 @@ fn feed(agent: &mut dyn Agent, n: usize, seed: u64) {
             terminated: &[rng.random_bool(0.05)],
             truncated: &[false],
             absorbing: vec![false],
+            teacher: None,
         });
         obs = next;
     }

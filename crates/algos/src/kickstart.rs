@@ -1,0 +1,138 @@
+//! Kickstarting (Schmitt et al., "Kickstarting Deep Reinforcement Learning", 2018) beside
+//! PPO (`[ppo.kickstart]`): a teacher labels every state of the learner's own rollouts
+//! with its action, and each PPO minibatch step adds a cloning term on the policy's means
+//!
+//! ```text
+//! L_ks  = coef(p) / n * sum_rows sum_j (mu_j(s) - a*_j(s))^2
+//! dL/dmu = 2 coef(p) / n * (mu - a*)
+//! coef(p) = coef_end + (coef_start - coef_end) * p     (p: progress remaining, 1 -> 0)
+//! ```
+//!
+//! `a*(s)` is the teacher's action in the env's action space, `n` the minibatch's rows.
+//! The states are the learner's own, as in DAgger (Ross et al. 2011): the teacher says
+//! what to do after the learner's own errors, not only along its own episodes. With the
+//! coefficient falling to 0 the learner starts as the teacher's clone and is left to the
+//! return alone by the end.
+//!
+//! Departures from the paper: its teachers are trained networks and its term the
+//! cross-entropy between the teacher's and the learner's action distributions; ours are
+//! deterministic controllers (the scripted kickers), so the term is the squared error of
+//! the Gaussian's mean, the part of `-log pi(a*|s)` that does not involve the standard
+//! deviation (the exploration stays PPO's own). Who labels is the run's business (the
+//! training loop hands the labels in [`crate::Experience::teacher`]).
+
+use crate::config::{ConfigError, ensure};
+use foosball_env::OpponentKind;
+use serde::{Deserialize, Serialize};
+
+/// `[ppo.kickstart]`: off unless a `teacher` is named.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct KickstartConfig {
+    /// The built-in controller that labels the learner's states (`shooter`, `dribbler`,
+    /// ...; `None`: off). It sees each state as the env hands it to the learner (with
+    /// black's rods hidden where `env.observation` hides them).
+    pub teacher: Option<OpponentKind>,
+    /// Weight of the cloning term at the start of training.
+    pub coef_start: f32,
+    /// Weight at the end (linear in env steps between the two).
+    pub coef_end: f32,
+}
+
+impl Default for KickstartConfig {
+    fn default() -> Self {
+        Self {
+            teacher: None,
+            coef_start: 1.0,
+            coef_end: 0.0,
+        }
+    }
+}
+
+impl KickstartConfig {
+    /// Whether a teacher labels the rollouts.
+    pub fn enabled(&self) -> bool {
+        self.teacher.is_some()
+    }
+
+    /// The term's weight at `progress_remaining` (1 at the start, 0 at the end).
+    pub fn coef_at(&self, progress_remaining: f64) -> f32 {
+        let p = progress_remaining.clamp(0.0, 1.0) as f32;
+        self.coef_end + (self.coef_start - self.coef_end) * p
+    }
+
+    /// Rejects a negative or non-finite weight, naming the key.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        for (key, value) in [("coef_start", self.coef_start), ("coef_end", self.coef_end)] {
+            ensure(
+                value.is_finite() && value >= 0.0,
+                key,
+                "must be finite and >= 0",
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// The cloning term of `means` towards the teacher's `labels` (both `[batch,
+/// action_dim]`, `batch` rows) with weight `coef`, and its gradient with respect to the
+/// means: `L = coef / batch * sum (mu - a*)^2`, `dL/dmu = 2 coef / batch * (mu - a*)`.
+pub fn cloning_loss(means: &[f32], labels: &[f32], batch: usize, coef: f32) -> (f32, Vec<f32>) {
+    assert_eq!(means.len(), labels.len(), "one label per mean");
+    let per_row = coef / batch as f32;
+    let error: Vec<f32> = means.iter().zip(labels).map(|(m, a)| m - a).collect();
+    let loss = per_row * error.iter().map(|e| e * e).sum::<f32>();
+    (loss, error.iter().map(|e| 2.0 * per_row * e).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_gradient_is_the_loss_s_slope() {
+        let means = [0.3, -0.8, 1.4, 0.0, -0.2, 0.9];
+        let labels = [1.0, -1.0, 0.5, 0.25, -0.2, 0.0];
+        let (loss, grad) = cloning_loss(&means, &labels, 3, 2.0);
+        let sq: f32 = means
+            .iter()
+            .zip(&labels)
+            .map(|(m, a)| (m - a).powi(2))
+            .sum();
+        assert!((loss - 2.0 / 3.0 * sq).abs() < 1e-6);
+        for j in 0..means.len() {
+            let h = 1e-3;
+            let mut up = means;
+            up[j] += h;
+            let mut down = means;
+            down[j] -= h;
+            let slope = (cloning_loss(&up, &labels, 3, 2.0).0
+                - cloning_loss(&down, &labels, 3, 2.0).0)
+                / (2.0 * h);
+            assert!(
+                (slope - grad[j]).abs() < 1e-3,
+                "{j}: {slope} vs {}",
+                grad[j]
+            );
+        }
+        assert_eq!(grad[4], 0.0, "a mean on its label feels no pull");
+    }
+
+    #[test]
+    fn the_weight_falls_from_start_to_end() {
+        let c = KickstartConfig {
+            teacher: Some(OpponentKind::Shooter),
+            coef_start: 4.0,
+            coef_end: 1.0,
+        };
+        assert_eq!(c.coef_at(1.0), 4.0);
+        assert_eq!(c.coef_at(0.0), 1.0);
+        assert_eq!(c.coef_at(0.5), 2.5);
+        assert!(!KickstartConfig::default().enabled());
+        let bad = KickstartConfig {
+            coef_end: -1.0,
+            ..c
+        };
+        assert!(bad.validate().unwrap_err().to_string().contains("coef_end"));
+    }
+}
