@@ -3,12 +3,14 @@
 //! with its action, and each PPO minibatch step adds a cloning term on the policy's means
 //!
 //! ```text
-//! L_ks  = coef(p) / n * sum_rows sum_j (mu_j(s) - a*_j(s))^2
-//! dL/dmu = 2 coef(p) / n * (mu - a*)
+//! L_ks  = coef(p) / n * sum_rows sum_(j in J) (mu_j(s) - a*_j(s))^2
+//! dL/dmu_j = 2 coef(p) / n * (mu_j - a*_j)   (j in J; 0 elsewhere)
 //! coef(p) = coef_end + (coef_start - coef_end) * p     (p: progress remaining, 1 -> 0)
 //! ```
 //!
-//! `a*(s)` is the teacher's action in the env's action space, `n` the minibatch's rows.
+//! `a*(s)` is the teacher's action in the env's action space, `n` the minibatch's rows,
+//! `J` the slide and turn commands of the rods in `rods` (all four by default: a teacher
+//! of the goalie and the defence alone leaves the midfield and the attack to the return).
 //! The states are the learner's own, as in DAgger (Ross et al. 2011): the teacher says
 //! what to do after the learner's own errors, not only along its own episodes. With the
 //! coefficient falling to 0 the learner starts as the teacher's clone and is left to the
@@ -23,6 +25,7 @@
 
 use crate::config::{ConfigError, ensure};
 use foosball_env::OpponentKind;
+use foosball_env::layout::{action_slide, action_turn};
 use serde::{Deserialize, Serialize};
 
 /// `[ppo.kickstart]`: off unless a `teacher` is named.
@@ -37,6 +40,8 @@ pub struct KickstartConfig {
     pub coef_start: f32,
     /// Weight at the end (linear in env steps between the two).
     pub coef_end: f32,
+    /// The rods whose commands are cloned (0 goalie, 1 defence, 2 midfield, 3 attack).
+    pub rods: Vec<usize>,
 }
 
 impl Default for KickstartConfig {
@@ -45,6 +50,7 @@ impl Default for KickstartConfig {
             teacher: None,
             coef_start: 1.0,
             coef_end: 0.0,
+            rods: vec![0, 1, 2, 3],
         }
     }
 }
@@ -61,8 +67,25 @@ impl KickstartConfig {
         self.coef_end + (self.coef_start - self.coef_end) * p
     }
 
-    /// Rejects a negative or non-finite weight, naming the key.
+    /// Which of `action_dim` action values are cloned (the commands of `rods`).
+    pub fn cloned_actions(&self, action_dim: usize) -> Vec<bool> {
+        let cloned: Vec<usize> = (self.rods.iter())
+            .flat_map(|&r| [action_slide(r), action_turn(r)])
+            .collect();
+        (0..action_dim).map(|j| cloned.contains(&j)).collect()
+    }
+
+    /// Rejects a negative or non-finite weight and rods that are not the table's four,
+    /// naming the key.
     pub fn validate(&self) -> Result<(), ConfigError> {
+        ensure(!self.rods.is_empty(), "rods", "name at least one rod (0-3)")?;
+        for (i, &r) in self.rods.iter().enumerate() {
+            ensure(
+                r < 4 && !self.rods[..i].contains(&r),
+                "rods",
+                &format!("{r}: each of the rods 0 (goalie) to 3 (attack) at most once"),
+            )?;
+        }
         for (key, value) in [("coef_start", self.coef_start), ("coef_end", self.coef_end)] {
             ensure(
                 value.is_finite() && value >= 0.0,
@@ -75,12 +98,22 @@ impl KickstartConfig {
 }
 
 /// The cloning term of `means` towards the teacher's `labels` (both `[batch,
-/// action_dim]`, `batch` rows) with weight `coef`, and its gradient with respect to the
-/// means: `L = coef / batch * sum (mu - a*)^2`, `dL/dmu = 2 coef / batch * (mu - a*)`.
-pub fn cloning_loss(means: &[f32], labels: &[f32], batch: usize, coef: f32) -> (f32, Vec<f32>) {
+/// action_dim]`, `batch` rows) on the action values `cloned` marks (`[action_dim]`) with
+/// weight `coef`, and its gradient with respect to the means:
+/// `L = coef / batch * sum (mu - a*)^2`, `dL/dmu = 2 coef / batch * (mu - a*)` on the
+/// cloned values, 0 on the others.
+pub fn cloning_loss(
+    means: &[f32],
+    labels: &[f32],
+    cloned: &[bool],
+    batch: usize,
+    coef: f32,
+) -> (f32, Vec<f32>) {
     assert_eq!(means.len(), labels.len(), "one label per mean");
     let per_row = coef / batch as f32;
-    let error: Vec<f32> = means.iter().zip(labels).map(|(m, a)| m - a).collect();
+    let error: Vec<f32> = (means.iter().zip(labels).enumerate())
+        .map(|(k, (m, a))| if cloned[k % cloned.len()] { m - a } else { 0.0 })
+        .collect();
     let loss = per_row * error.iter().map(|e| e * e).sum::<f32>();
     (loss, error.iter().map(|e| 2.0 * per_row * e).collect())
 }
@@ -89,25 +122,25 @@ pub fn cloning_loss(means: &[f32], labels: &[f32], batch: usize, coef: f32) -> (
 mod tests {
     use super::*;
 
+    fn squares(e: &[f32]) -> f32 {
+        e.iter().map(|e| e * e).sum()
+    }
+
     #[test]
     fn the_gradient_is_the_loss_s_slope() {
         let means = [0.3, -0.8, 1.4, 0.0, -0.2, 0.9];
         let labels = [1.0, -1.0, 0.5, 0.25, -0.2, 0.0];
-        let (loss, grad) = cloning_loss(&means, &labels, 3, 2.0);
-        let sq: f32 = means
-            .iter()
-            .zip(&labels)
-            .map(|(m, a)| (m - a).powi(2))
-            .sum();
-        assert!((loss - 2.0 / 3.0 * sq).abs() < 1e-6);
+        let all = [true, true];
+        let (loss, grad) = cloning_loss(&means, &labels, &all, 3, 2.0);
+        let error: Vec<f32> = means.iter().zip(&labels).map(|(m, a)| m - a).collect();
+        assert!((loss - 2.0 / 3.0 * squares(&error)).abs() < 1e-6);
         for j in 0..means.len() {
             let h = 1e-3;
-            let mut up = means;
+            let (mut up, mut down) = (means, means);
             up[j] += h;
-            let mut down = means;
             down[j] -= h;
-            let slope = (cloning_loss(&up, &labels, 3, 2.0).0
-                - cloning_loss(&down, &labels, 3, 2.0).0)
+            let slope = (cloning_loss(&up, &labels, &all, 3, 2.0).0
+                - cloning_loss(&down, &labels, &all, 3, 2.0).0)
                 / (2.0 * h);
             assert!(
                 (slope - grad[j]).abs() < 1e-3,
@@ -116,6 +149,34 @@ mod tests {
             );
         }
         assert_eq!(grad[4], 0.0, "a mean on its label feels no pull");
+        // The second action value left out: no loss and no pull on it.
+        let (loss, grad) = cloning_loss(&means, &labels, &[true, false], 3, 2.0);
+        let kept = [error[0], error[2], error[4]];
+        assert!((loss - 2.0 / 3.0 * squares(&kept)).abs() < 1e-6, "{loss}");
+        assert_eq!([grad[1], grad[3], grad[5]], [0.0; 3]);
+    }
+
+    #[test]
+    fn the_rods_named_are_the_actions_cloned() {
+        let c = KickstartConfig {
+            rods: vec![0, 1],
+            ..KickstartConfig::default()
+        };
+        let cloned = c.cloned_actions(8);
+        assert_eq!(cloned, [true, true, true, true, false, false, false, false]);
+        assert!(
+            KickstartConfig::default()
+                .cloned_actions(8)
+                .iter()
+                .all(|&c| c)
+        );
+        for rods in [vec![], vec![4], vec![1, 1]] {
+            let bad = KickstartConfig {
+                rods,
+                ..KickstartConfig::default()
+            };
+            assert!(bad.validate().unwrap_err().to_string().contains("rods"));
+        }
     }
 
     #[test]
@@ -124,6 +185,7 @@ mod tests {
             teacher: Some(OpponentKind::Shooter),
             coef_start: 4.0,
             coef_end: 1.0,
+            ..KickstartConfig::default()
         };
         assert_eq!(c.coef_at(1.0), 4.0);
         assert_eq!(c.coef_at(0.0), 1.0);

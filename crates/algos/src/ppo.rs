@@ -329,8 +329,10 @@ fn minibatch_step<N: PpoNetworks>(
         .as_ref()
         .filter(|_| c.bounds_loss_coef > 0.0)
         .map(|m| bound_loss(m, n, c.bounds_loss_coef, c.bounds_soft_bound));
-    let cloning = (means.as_ref().zip(mb.teacher.as_ref()))
-        .map(|(m, (labels, coef))| cloning_loss(m, labels, n, *coef));
+    let cloning = (means.as_ref().zip(mb.teacher.as_ref())).map(|(m, (labels, coef))| {
+        let cloned = c.kickstart.cloned_actions(labels.len() / n);
+        cloning_loss(m, labels, &cloned, n, *coef)
+    });
     let d_means = match (&bounds, &cloning) {
         (Some((_, b)), Some((_, k))) => Some(b.iter().zip(k).map(|(b, k)| b + k).collect()),
         (Some((_, d)), None) | (None, Some((_, d))) => Some(d.clone()),
@@ -791,8 +793,13 @@ mod tests {
             + value_loss.mul_scalar(c.vf_coef)
             + bounds;
         if let Some((labels, coef)) = &mb.teacher {
-            let cloning = (mean - matrix(labels, a, &dev)).square().sum_dim(1).mean();
-            loss = loss + cloning.mul_scalar(*coef);
+            let rows = mb.returns.len();
+            let cloned: Vec<f32> = (0..rows)
+                .flat_map(|_| c.kickstart.cloned_actions(a))
+                .map(|c| if c { 1.0 } else { 0.0 })
+                .collect();
+            let error = (mean - matrix(labels, a, &dev)) * matrix(&cloned, a, &dev);
+            loss = loss + error.square().sum_dim(1).mean().mul_scalar(*coef);
         }
         let mut adam = Adam::new(c.net.adam.clone());
         adam.step_in_place(&mut m, &mut loss.backward(), 10.0);
@@ -858,7 +865,8 @@ mod tests {
                 kickstart: KickstartConfig {
                     teacher: Some(foosball_env::OpponentKind::Shooter),
                     coef_start: 2.0,
-                    coef_end: 0.0,
+                    rods: vec![1, 3],
+                    ..KickstartConfig::default()
                 },
                 ..bounded
             };
@@ -1081,6 +1089,7 @@ mod tests {
             teacher: Some(foosball_env::OpponentKind::Shooter),
             coef_start: 20.0,
             coef_end: 20.0,
+            ..KickstartConfig::default()
         };
         let (mut cloned, updates) = drive(c, true, 40);
         let (mut plain, plain_updates) = drive(small(), true, 40);
