@@ -61,7 +61,7 @@ impl ScriptedPolicy {
     /// `ball_frame` and `action_map`. The planner has none: it plans from an episode's
     /// seed, not from observations (the error says so).
     pub fn batch_policy(self, seed: u64, env: &FoosballConfig) -> Result<OwnedPolicy, String> {
-        let mut controller: Box<dyn Opponent> = match self {
+        let controller: Box<dyn Opponent> = match self {
             ScriptedPolicy::Shooter => Box::new(Kicker::shooter()),
             ScriptedPolicy::Dribbler => Box::new(Kicker::dribbler()),
             ScriptedPolicy::Zero => Box::new(StaticOpponent),
@@ -75,17 +75,30 @@ impl ScriptedPolicy {
                 );
             }
         };
-        let mut rng = EnvRng::seed_from_u64(seed);
-        let (frame, map) = (env.ball_frame, env.action_map);
-        Ok(Box::new(move |obs: &[f32]| {
-            obs.chunks_exact(OBS_DIM)
-                .flat_map(|row| {
-                    let row: &[f32; OBS_DIM] = row.try_into().expect("chunks of OBS_DIM");
-                    controller.act_in(map, &from_ball_frame(row, frame), &mut rng)
-                })
-                .collect::<Vec<f32>>()
-        }))
+        Ok(controller_policy(controller, seed, env))
     }
+}
+
+/// `controller` (a hand-written player: it reads the ball in world coordinates and writes
+/// linear commands) as a policy over batches of observations of a table configured as
+/// `env`: each row translated from `env`'s `ball_frame`, each action into its
+/// `action_map`; `seed` fixes a random controller's draws (one stream, rows in batch
+/// order).
+pub fn controller_policy(
+    mut controller: Box<dyn Opponent>,
+    seed: u64,
+    env: &FoosballConfig,
+) -> OwnedPolicy {
+    let mut rng = EnvRng::seed_from_u64(seed);
+    let (frame, map) = (env.ball_frame, env.action_map);
+    Box::new(move |obs: &[f32]| {
+        obs.chunks_exact(OBS_DIM)
+            .flat_map(|row| {
+                let row: &[f32; OBS_DIM] = row.try_into().expect("chunks of OBS_DIM");
+                controller.act_in(map, &from_ball_frame(row, frame), &mut rng)
+            })
+            .collect::<Vec<f32>>()
+    })
 }
 
 /// A scripted policy's test on a table (`evaluate --policy`, a sweep's baselines), saved
