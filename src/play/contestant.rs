@@ -10,7 +10,7 @@ use std::str::FromStr;
 use clap::ValueEnum;
 use foosball_algos::ActMode;
 use foosball_env::geometry::RODS;
-use foosball_env::layout::{action_slide, action_turn};
+use foosball_env::layout::{ACTION_DIM, action_slide, action_turn};
 use foosball_env::seeding::{ACTION_SAMPLING, derive_seed};
 use foosball_env::{FoosballConfig, ObservationKind};
 use serde::{Deserialize, Serialize};
@@ -231,7 +231,8 @@ impl Contestant {
                 actions,
             } => {
                 let config = RunConfig::load_run(dir).map_err(|e| e.to_string())?;
-                fits(&config.env, table).map_err(|why| format!("{}: {why}", dir.display()))?;
+                plays_on(&config.env, table).map_err(|why| format!("{}: {why}", dir.display()))?;
+                let (trained_map, table_map) = (config.env.action_map, table.action_map);
                 let mut agent = load_agent(&config, &dir.join(checkpoint.name()))?;
                 let mode = match actions {
                     TestActions::Deterministic => ActMode::Deterministic,
@@ -242,12 +243,23 @@ impl Contestant {
                 };
                 let observation = config.env.observation;
                 Ok(Box::new(move |obs: &[f32]| {
-                    if !observation.hide_black_rods {
-                        return agent.act(obs, mode);
+                    let action = if observation.hide_black_rods {
+                        let mut seen = obs.to_vec();
+                        observation.conceal(&mut seen);
+                        agent.act(&seen, mode)
+                    } else {
+                        agent.act(obs, mode)
+                    };
+                    if trained_map == table_map {
+                        return action;
                     }
-                    let mut seen = obs.to_vec();
-                    observation.conceal(&mut seen);
-                    agent.act(&seen, mode)
+                    action
+                        .chunks_exact(ACTION_DIM)
+                        .flat_map(|row| {
+                            let row: [f32; ACTION_DIM] = row.try_into().expect("chunks of 8");
+                            trained_map.translate(table_map, row)
+                        })
+                        .collect()
                 }))
             }
             Contestant::Held { player, rods } => {
@@ -295,24 +307,42 @@ fn held_rods(names: &str) -> Result<Vec<usize>, String> {
     Ok(rods)
 }
 
-/// Whether a policy trained on `trained` can play a match on `table`: the state
+/// Whether networks trained on `trained` can start a run on `table`: the state
 /// observation, read and written alike ([`means_the_same`]).
 pub fn fits(trained: &FoosballConfig, table: &FoosballConfig) -> Result<(), String> {
+    plays_on(trained, table)?;
+    acts_alike(trained, table)
+}
+
+/// Whether a policy trained on `trained` can play a match on `table`: the state
+/// observation in the same ball frame. Its actions are translated into `table`'s action
+/// map where the maps differ ([`foosball_env::config::ActionMap::translate`]: the same
+/// servo targets), so runs trained under either map meet on one table.
+pub fn plays_on(trained: &FoosballConfig, table: &FoosballConfig) -> Result<(), String> {
     if trained.observation.kind != ObservationKind::State {
         return Err("it sees images; matches are played on the state observation".into());
     }
-    means_the_same(trained, table)
+    sees_alike(trained, table)
 }
 
 /// Whether `table`'s observations and actions mean what they meant on `trained`: the
 /// same ball frame and action map.
 pub fn means_the_same(trained: &FoosballConfig, table: &FoosballConfig) -> Result<(), String> {
+    sees_alike(trained, table)?;
+    acts_alike(trained, table)
+}
+
+fn sees_alike(trained: &FoosballConfig, table: &FoosballConfig) -> Result<(), String> {
     if trained.ball_frame != table.ball_frame {
         return Err(format!(
             "it was trained with ball_frame = {:?}, the table has {:?}",
             trained.ball_frame, table.ball_frame
         ));
     }
+    Ok(())
+}
+
+fn acts_alike(trained: &FoosballConfig, table: &FoosballConfig) -> Result<(), String> {
     if trained.action_map != table.action_map {
         return Err(format!(
             "it was trained with action_map = {:?}, the table has {:?}",

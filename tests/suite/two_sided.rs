@@ -191,6 +191,55 @@ fn bad_contestants_are_refused_by_name() {
 }
 
 #[test]
+fn a_run_plays_a_table_of_the_other_action_map_with_its_own_servo_targets() {
+    use foosball_rl::env::config::ActionMap;
+    use foosball_rl::env::geometry::RODS;
+    use foosball_rl::env::layout::action_slide;
+    // A self-play run trained under the linear map (ball frame joint) on the code's
+    // saturating table: its actions are translated so that they set the servo targets
+    // they set on a linear table.
+    let run: Contestant = "results/league/self-play-ppo-kickstart-shooter-seed0"
+        .parse()
+        .unwrap();
+    let saturating = match_table(&FoosballConfig::default(), &MatchRules::default());
+    let mut linear = saturating.clone();
+    linear.action_map = ActionMap::Linear;
+    let mut on_saturating = run.policy(&saturating, 0).unwrap();
+    let mut on_linear = run.policy(&linear, 0).unwrap();
+    let mut env = FoosballEnv::new(saturating.clone()).unwrap();
+    let (mut translated, mut saturated_untranslated) = (0, 0);
+    for seed in 0..20 {
+        let mut obs = env.reset(Some(seed));
+        for _ in 0..25 {
+            let (a, b) = (on_saturating(&obs), on_linear(&obs));
+            for i in 0..8 {
+                let rod = &RODS[i / 2];
+                let range = if i == action_slide(i / 2) {
+                    rod.slide_range
+                } else {
+                    rod.turn_range
+                };
+                let (want, got) = (
+                    ActionMap::Linear.target(b[i], range),
+                    ActionMap::Saturating.target(a[i], range),
+                );
+                assert!((want - got).abs() <= 1e-5 * range, "[{i}] {want} {got}");
+                translated += usize::from(a[i] != b[i]);
+                saturated_untranslated +=
+                    usize::from((ActionMap::Saturating.target(b[i], range) - want).abs() > 0.01);
+            }
+            obs = env.step(&a).unwrap().0;
+        }
+    }
+    // The translation did something: untranslated, most of these actions would have set
+    // other targets.
+    assert!(
+        translated > 3000 && saturated_untranslated > 1000,
+        "{translated} {saturated_untranslated}"
+    );
+}
+
+#[test]
 fn a_head_to_head_swaps_sides_on_the_same_serves() {
     use foosball_rl::play::matches::{head_to_head, round_seed};
     let table = match_table(&FoosballConfig::default(), &MatchRules::default());

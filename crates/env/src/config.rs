@@ -481,15 +481,38 @@ impl ActionMap {
         match self {
             ActionMap::Linear => linear,
             ActionMap::Saturating => core::array::from_fn(|i| {
-                let spec = &geometry::RODS[i / 2];
-                let range = if i == action_slide(i / 2) {
-                    spec.slide_range
-                } else {
-                    spec.turn_range
-                };
-                linear[i].clamp(-1.0, 1.0) * range / geometry::REFERENCE_ACTION_BOUND
+                linear[i].clamp(-1.0, 1.0) * control_range(i) / geometry::REFERENCE_ACTION_BOUND
             }),
         }
+    }
+
+    /// The linear action (each value in [-1, 1]) that sets the servo targets `action`
+    /// sets under this map.
+    pub fn to_linear(self, action: [f32; ACTION_DIM]) -> [f32; ACTION_DIM] {
+        core::array::from_fn(|i| {
+            let range = control_range(i);
+            self.target(action[i], range) / range
+        })
+    }
+
+    /// `action` of this map as the action of `to` that sets the same servo targets
+    /// (exact both ways: a policy trained under one map plays a table of the other).
+    pub fn translate(self, to: ActionMap, action: [f32; ACTION_DIM]) -> [f32; ACTION_DIM] {
+        if self == to {
+            return action;
+        }
+        to.from_linear(self.to_linear(action))
+    }
+}
+
+/// The control range of action value `i` (foosball's 8-dim layout): the rod's slide
+/// range (cm) or turn range (rad).
+fn control_range(i: usize) -> f32 {
+    let spec = &geometry::RODS[i / 2];
+    if i == action_slide(i / 2) {
+        spec.slide_range
+    } else {
+        spec.turn_range
     }
 }
 
@@ -1154,6 +1177,31 @@ mod tests {
     #[test]
     fn defaults_are_valid() {
         FoosballConfig::default().validate().unwrap();
+    }
+
+    #[test]
+    fn an_action_translated_between_maps_sets_the_same_servo_targets() {
+        use ActionMap::{Linear, Saturating};
+        // Inside, at and past each map's saturation, both signs, and a value out of range.
+        let actions = [
+            [0.0, 0.05, -0.1, 0.125, -0.3, 0.5, 1.0, -1.0],
+            [0.02, -0.02, 0.2, -0.7, 0.9, -0.124, 3.0, -2.5],
+        ];
+        for a in actions {
+            for (from, to) in [(Linear, Saturating), (Saturating, Linear), (Linear, Linear)] {
+                let b = from.translate(to, a);
+                for i in 0..ACTION_DIM {
+                    let r = control_range(i);
+                    let (want, got) = (from.target(a[i], r), to.target(b[i], r));
+                    assert!(
+                        (want - got).abs() < 1e-5 * r,
+                        "{from:?}->{to:?} [{i}] {want} {got}"
+                    );
+                }
+            }
+        }
+        // A saturating turn of 0.2 is the whole turn range: linear 1.
+        assert_eq!(Saturating.to_linear([0.2; ACTION_DIM])[1], 1.0);
     }
 
     #[test]
