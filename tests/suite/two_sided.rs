@@ -192,9 +192,8 @@ fn bad_contestants_are_refused_by_name() {
 
 #[test]
 fn a_run_plays_a_table_of_the_other_action_map_with_its_own_servo_targets() {
-    use foosball_rl::env::config::ActionMap;
-    use foosball_rl::env::geometry::RODS;
-    use foosball_rl::env::layout::action_slide;
+    use foosball_rl::env::config::{ActionMap, control_range};
+    use foosball_rl::env::layout::ACTION_DIM;
     // A self-play run trained under the linear map (ball frame joint) on the code's
     // saturating table: its actions are translated so that they set the servo targets
     // they set on a linear table.
@@ -212,13 +211,8 @@ fn a_run_plays_a_table_of_the_other_action_map_with_its_own_servo_targets() {
         let mut obs = env.reset(Some(seed));
         for _ in 0..25 {
             let (a, b) = (on_saturating(&obs), on_linear(&obs));
-            for i in 0..8 {
-                let rod = &RODS[i / 2];
-                let range = if i == action_slide(i / 2) {
-                    rod.slide_range
-                } else {
-                    rod.turn_range
-                };
+            for i in 0..ACTION_DIM {
+                let range = control_range(i);
                 let (want, got) = (
                     ActionMap::Linear.target(b[i], range),
                     ActionMap::Saturating.target(a[i], range),

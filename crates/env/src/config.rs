@@ -507,7 +507,7 @@ impl ActionMap {
 
 /// The control range of action value `i` (foosball's 8-dim layout): the rod's slide
 /// range (cm) or turn range (rad).
-fn control_range(i: usize) -> f32 {
+pub fn control_range(i: usize) -> f32 {
     let spec = &geometry::RODS[i / 2];
     if i == action_slide(i / 2) {
         spec.slide_range
