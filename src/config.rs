@@ -407,6 +407,23 @@ impl AlgoConfig {
         }
     }
 
+    /// The key that says how the learner takes demonstrations (SAC's and TD3's
+    /// `off_policy.demo_share`, the share of each minibatch they fill; PPO's
+    /// `[ppo.demonstrations]`, its cloning steps) and whether it is set.
+    pub fn demonstrations_key(&self) -> (&'static str, bool) {
+        match self {
+            AlgoConfig::Ppo(c) => ("ppo.demonstrations", c.demonstrations.is_some()),
+            AlgoConfig::Sac(c) => (
+                "sac.off_policy.demo_share",
+                c.off_policy.demo_share.is_some(),
+            ),
+            AlgoConfig::Td3(c) => (
+                "td3.off_policy.demo_share",
+                c.off_policy.demo_share.is_some(),
+            ),
+        }
+    }
+
     /// Rejects out-of-range values; keys are under the algorithm's section.
     fn validate(&self) -> Result<(), ConfigError> {
         match self {
@@ -533,9 +550,12 @@ impl CurriculumConfig {
 /// there, its first sampling centred on what the learner played from that step on; where
 /// it finds a goal, the states from that step on with the planner's actions join the
 /// run's demonstrations (the aggregate, never dropped), which fill
-/// `off_policy.demo_share` of each minibatch (cloned with `bc_weight`). The learner's
-/// episodes and the planner's rollouts are simulated, not counted as the run's env steps
-/// (the scalars log them: `train/dagger_*`). Evaluations and the test play the networks alone.
+/// `off_policy.demo_share` of each minibatch (SAC and TD3, cloned with `bc_weight`) or
+/// are cloned after each update (PPO's `[ppo.demonstrations]`). The learner's episodes
+/// and the planner's searches are played against `env.opponent`, under `[self_play]` too
+/// (whose training draws black from its pool): the scripted black whose defence the
+/// labels answer. They are simulated, not counted as the run's env steps (the scalars log
+/// them: `train/dagger_*`). Evaluations and the test play the networks alone.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct DaggerConfig {
@@ -908,28 +928,24 @@ impl RunConfig {
         }
         self.env.validate().map_err(|e| e.under("env"))?;
         self.algorithm.validate()?;
-        let demo_share = self.algorithm.off_policy().and_then(|o| o.demo_share);
-        match (&p.demonstrations, demo_share) {
+        let (demo_key, takes_demos) = self.algorithm.demonstrations_key();
+        match (&p.demonstrations, takes_demos) {
             (Some(files), _) if files.paths().is_empty() => {
                 return Err(ConfigError::new(
                     "protocol.demonstrations",
                     "an empty list: name at least one trajectories.bin, or leave the key out",
                 ));
             }
-            (Some(_), None) => {
+            (Some(_), false) => {
                 return Err(ConfigError::new(
                     "protocol.demonstrations",
-                    format!(
-                        "set {}.off_policy.demo_share, the share of each minibatch they fill \
-                         (SAC and TD3 only)",
-                        self.algo()
-                    ),
+                    format!("set {demo_key}: how the learner takes them"),
                 ));
             }
-            (None, Some(_)) if self.dagger.is_none() => {
+            (None, true) if self.dagger.is_none() => {
                 return Err(ConfigError::new(
-                    format!("{}.off_policy.demo_share", self.algo()),
-                    "draws from demonstrations: set protocol.demonstrations (or [dagger])",
+                    demo_key,
+                    "learns from demonstrations: set protocol.demonstrations (or [dagger])",
                 ));
             }
             _ => {}
@@ -955,20 +971,10 @@ impl RunConfig {
         }
         if let Some(d) = &self.dagger {
             d.validate()?;
-            if demo_share.is_none() {
+            if !takes_demos {
                 return Err(ConfigError::new(
                     "dagger",
-                    format!(
-                        "its labels are demonstrations: set {}.off_policy.demo_share (SAC \
-                         and TD3 only), the share of each minibatch they fill",
-                        self.algo()
-                    ),
-                ));
-            }
-            if self.self_play.is_some() {
-                return Err(ConfigError::new(
-                    "dagger",
-                    "not with [self_play]: the planner searches against env.opponent",
+                    format!("its labels are demonstrations: set {demo_key}"),
                 ));
             }
             if self.env.observation.kind != ObservationKind::State {
@@ -995,13 +1001,6 @@ impl RunConfig {
                 return Err(ConfigError::new(
                     "normalize.obs",
                     "standardises the state vector: this run observes images (set obs = false)",
-                ));
-            }
-            if self.dagger.is_some() {
-                return Err(ConfigError::new(
-                    "normalize",
-                    "not with [dagger]: its labels join the demonstrations as training goes, \
-                     raw, after the moments have moved",
                 ));
             }
         }

@@ -48,9 +48,9 @@ impl DemoEpisode {
 }
 
 /// Gives `agent` the episodes of the files of `config.protocol.demonstrations`, in
-/// order, and returns how many transitions it kept (`None` when the key is unset). A
-/// refusal names the key and the files ([`file_demonstrations`]), or says why the agent
-/// cannot take them (an algorithm without `off_policy.demo_share`).
+/// order, and returns how many rows it kept (`None` when the key is unset). A refusal
+/// names the key and the files ([`file_demonstrations`]), or says why the agent cannot
+/// take them (a learner without `off_policy.demo_share` or `[ppo.demonstrations]`).
 pub fn give_demonstrations(
     config: &RunConfig,
     agent: &mut dyn Agent,

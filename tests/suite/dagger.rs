@@ -140,6 +140,46 @@ fn a_run_learns_from_the_labels_the_same_way_twice_and_logs_the_rounds() {
     );
 }
 
+/// PPO in self-play with normalised observations: the labels (of episodes against
+/// `env.opponent`) are cloned after each update (`train/demo_cloning_*`), and change
+/// the networks the run ends with.
+#[test]
+fn a_ppo_self_play_run_clones_the_labels_after_its_updates() {
+    let dir = scratch("dagger-ppo");
+    let text = |teacher: &str| {
+        tiny_config_text("ppo", 2, 200).replace("max_episode_steps = 30", "max_episode_steps = 120")
+            + "[ppo.demonstrations]\nbatch_size = 16\nupdates = 2\n[normalize]\n\
+               [self_play]\nsnapshot_every = 100\npool_size = 2\n"
+            + teacher
+    };
+    let (_, scalars) = run(&dir, "taught", &text(TEACHER)).unwrap();
+    let idle = TEACHER.replace("every = 100", "every = 100000");
+    let (_, idle_scalars) = run(&dir, "alone", &text(&idle)).unwrap();
+    // The tiny runs' test episodes never reach the ball: their networks tell them apart.
+    let networks =
+        |name: &str| std::fs::read(dir.join(name).join("last/actor_critic.bpk")).unwrap();
+    assert_ne!(
+        networks("taught"),
+        networks("alone"),
+        "the labels changed nothing"
+    );
+    let last = |scalars: &str, tag: &str| -> Option<f64> {
+        (scalars.lines())
+            .filter(|l| l.contains(tag))
+            .rev()
+            .find_map(|l| l.rsplit(',').next()?.parse().ok())
+    };
+    assert!(
+        last(&scalars, "train/dagger_aggregate_rows").unwrap() > 0.0,
+        "no label: {scalars}"
+    );
+    assert!(
+        last(&scalars, "train/demo_cloning_loss").is_some(),
+        "{scalars}"
+    );
+    assert_eq!(last(&idle_scalars, "train/demo_cloning_loss"), None);
+}
+
 #[test]
 fn a_teacher_that_does_not_fit_the_run_is_refused_by_key() {
     let refused = |text: String, keys: &[&str]| {
@@ -152,7 +192,7 @@ fn a_teacher_that_does_not_fit_the_run_is_refused_by_key() {
     );
     refused(
         tiny_config_text("ppo", 1, 100) + TEACHER,
-        &["dagger", "demo_share"],
+        &["dagger", "ppo.demonstrations"],
     );
     for (from, to, key) in [
         ("every = 100", "every = 0", "dagger.every"),
@@ -167,10 +207,6 @@ fn a_teacher_that_does_not_fit_the_run_is_refused_by_key() {
     ] {
         refused(config_text(&TEACHER.replace(from, to)), &[key]);
     }
-    refused(
-        config_text(TEACHER) + "[self_play]\n",
-        &["dagger", "self_play"],
-    );
     // `demo_share` without files: allowed only beside a teacher.
     refused(
         config_text(""),

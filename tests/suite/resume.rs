@@ -178,6 +178,19 @@ fn a_sac_run_with_the_interactive_teacher_stopped_and_resumed_ends_as_the_uninte
     stopped_mid_epoch_and_resumed("sac", teacher, None);
 }
 
+/// PPO cloning the teacher's labels in self-play with normalised observations: the
+/// labels handed again after the resume are normalised with the checkpoint's moments and
+/// not merged into them twice (`Normalized`'s count of the episodes merged).
+#[test]
+fn a_ppo_self_play_run_with_the_teacher_and_normalisation_stopped_and_resumed_ends_as_the_uninterrupted_one()
+ {
+    let teacher = "[ppo.demonstrations]\nbatch_size = 16\nupdates = 2\n[normalize]\n\
+                   [self_play]\nsnapshot_every = 60\npool_size = 3\n\
+                   [dagger]\nevery = 75\nepisodes = 2\n[dagger.planner]\npopulation = 16\n\
+                   elites = 4\niterations = 4\nmax_rollout_steps = 30\n";
+    stopped_mid_epoch_and_resumed("ppo", teacher, None);
+}
+
 #[test]
 fn a_td3_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_one() {
     stopped_mid_epoch_and_resumed("td3", "", None);

@@ -1,7 +1,7 @@
-//! Demonstrations for the off-policy learners: episodes another player played (the
-//! planner's, say), held in a replay buffer of their own that is never overwritten and
-//! mixed into every minibatch at `off_policy.demo_share` (RLPD's symmetric sampling
-//! when 0.5; Ball et al. 2023).
+//! Demonstrations: episodes another player played (the planner's, say). The off-policy
+//! learners hold them in a replay buffer of their own that is never overwritten and mixed
+//! into every minibatch at `off_policy.demo_share` (RLPD's symmetric sampling when 0.5;
+//! Ball et al. 2023); PPO clones their state-action rows ([`crate::demo_cloning`]).
 
 use crate::replay::ReplayBuffer;
 
@@ -36,23 +36,13 @@ pub fn demonstration_buffer(
     action_dim: usize,
     store: impl Fn(f32, bool) -> f32,
 ) -> Result<ReplayBuffer, String> {
-    let mut rows = 0;
-    for (k, e) in episodes.iter().enumerate() {
-        let t = e.rewards.len();
-        if e.obs.len() != t * obs_dim || e.actions.len() != t * action_dim {
-            return Err(format!(
-                "demonstration {k}: {} observation and {} action values for {t} steps; \
-                 the learner takes {obs_dim} and {action_dim} per step",
-                e.obs.len(),
-                e.actions.len()
-            ));
-        }
-        let finite = e.obs.iter().chain(e.actions).chain(e.rewards);
-        if !finite.clone().all(|x| x.is_finite()) {
-            return Err(format!("demonstration {k}: a non-finite value"));
-        }
-        rows += if e.terminated { t } else { t.saturating_sub(1) };
-    }
+    check_episodes(episodes, obs_dim, action_dim)?;
+    let rows: usize = (episodes.iter())
+        .map(|e| {
+            let t = e.rewards.len();
+            if e.terminated { t } else { t.saturating_sub(1) }
+        })
+        .sum();
     if rows == 0 {
         return Err("the demonstrations hold no transition".into());
     }
@@ -76,6 +66,54 @@ pub fn demonstration_buffer(
         }
     }
     Ok(buffer)
+}
+
+/// Every state of `episodes` with the action played there, row-major: `(obs [rows,
+/// obs_dim], actions [rows, action_dim])`, the episodes one after the other (a cut
+/// episode's last state included: cloning needs no next state). The same refusals as
+/// [`demonstration_buffer`].
+pub fn demonstration_rows(
+    episodes: &[Demonstration<'_>],
+    obs_dim: usize,
+    action_dim: usize,
+) -> Result<(Vec<f32>, Vec<f32>), String> {
+    check_episodes(episodes, obs_dim, action_dim)?;
+    if episodes.iter().all(|e| e.rewards.is_empty()) {
+        return Err("the demonstrations hold no state".into());
+    }
+    let obs = episodes
+        .iter()
+        .flat_map(|e| e.obs.iter().copied())
+        .collect();
+    let actions = (episodes.iter())
+        .flat_map(|e| e.actions.iter().copied())
+        .collect();
+    Ok((obs, actions))
+}
+
+/// Refuses an episode whose widths do not fit `obs_dim`/`action_dim` or that holds a
+/// non-finite value, naming it.
+fn check_episodes(
+    episodes: &[Demonstration<'_>],
+    obs_dim: usize,
+    action_dim: usize,
+) -> Result<(), String> {
+    for (k, e) in episodes.iter().enumerate() {
+        let t = e.rewards.len();
+        if e.obs.len() != t * obs_dim || e.actions.len() != t * action_dim {
+            return Err(format!(
+                "demonstration {k}: {} observation and {} action values for {t} steps; \
+                 the learner takes {obs_dim} and {action_dim} per step",
+                e.obs.len(),
+                e.actions.len()
+            ));
+        }
+        let finite = e.obs.iter().chain(e.actions).chain(e.rewards);
+        if !finite.clone().all(|x| x.is_finite()) {
+            return Err(format!("demonstration {k}: a non-finite value"));
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -159,5 +197,20 @@ mod tests {
         };
         let err = demonstration_buffer(&[one_cut], 1, 1, |r, _| r).unwrap_err();
         assert!(err.contains("no transition"), "{err}");
+        // As rows to clone, the cut episode's one state counts; the same refusals.
+        let (obs, actions) = demonstration_rows(&[one_cut, one_cut], 1, 1).unwrap();
+        assert_eq!((obs, actions), (vec![0.0, 0.0], vec![0.5, 0.5]));
+        let wide = demonstration_rows(&[good], 1, 1).unwrap_err();
+        assert!(wide.contains("demonstration 0"), "{wide}");
+        let err = demonstration_rows(&[one_cut, nan], 1, 1).unwrap_err();
+        assert!(err.contains("demonstration 1: a non-finite"), "{err}");
+        let empty = Demonstration {
+            obs: &[],
+            actions: &[],
+            rewards: &[],
+            ..good
+        };
+        let err = demonstration_rows(&[empty], 1, 1).unwrap_err();
+        assert!(err.contains("no state"), "{err}");
     }
 }

@@ -69,23 +69,13 @@ impl KickstartConfig {
 
     /// Which of `action_dim` action values are cloned (the commands of `rods`).
     pub fn cloned_actions(&self, action_dim: usize) -> Vec<bool> {
-        let cloned: Vec<usize> = (self.rods.iter())
-            .flat_map(|&r| [action_slide(r), action_turn(r)])
-            .collect();
-        (0..action_dim).map(|j| cloned.contains(&j)).collect()
+        rod_actions(&self.rods, action_dim)
     }
 
     /// Rejects a negative or non-finite weight and rods that are not the table's four,
     /// naming the key.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        ensure(!self.rods.is_empty(), "rods", "name at least one rod (0-3)")?;
-        for (i, &r) in self.rods.iter().enumerate() {
-            ensure(
-                r < 4 && !self.rods[..i].contains(&r),
-                "rods",
-                &format!("{r}: each of the rods 0 (goalie) to 3 (attack) at most once"),
-            )?;
-        }
+        check_rods(&self.rods)?;
         for (key, value) in [("coef_start", self.coef_start), ("coef_end", self.coef_end)] {
             ensure(
                 value.is_finite() && value >= 0.0,
@@ -95,6 +85,29 @@ impl KickstartConfig {
         }
         Ok(())
     }
+}
+
+/// Which of `action_dim` action values command the rods `rods` (0 goalie ... 3 attack):
+/// their slides and turns.
+pub fn rod_actions(rods: &[usize], action_dim: usize) -> Vec<bool> {
+    let commands: Vec<usize> = (rods.iter())
+        .flat_map(|&r| [action_slide(r), action_turn(r)])
+        .collect();
+    (0..action_dim).map(|j| commands.contains(&j)).collect()
+}
+
+/// Rejects an empty list of rods and rods that are not the table's four (or named
+/// twice), under the key `rods`.
+pub fn check_rods(rods: &[usize]) -> Result<(), ConfigError> {
+    ensure(!rods.is_empty(), "rods", "name at least one rod (0-3)")?;
+    for (i, &r) in rods.iter().enumerate() {
+        ensure(
+            r < 4 && !rods[..i].contains(&r),
+            "rods",
+            &format!("{r}: each of the rods 0 (goalie) to 3 (attack) at most once"),
+        )?;
+    }
+    Ok(())
 }
 
 /// The cloning term of `means` towards the teacher's `labels` (both `[batch,

@@ -2,7 +2,7 @@
 //! definitions, the replay buffer SAC and TD3 share (`replay`; image planes stored once
 //! each in `plane_store`), PPO's rollout buffer and GAE (`rollout_buffer`), the collector
 //! that steps a VecEnv for any of them (`rollout`), demonstrations mixed into SAC's and
-//! TD3's minibatches (`demonstrations`), running normalisation of observations and rewards
+//! TD3's minibatches (`demonstrations`) and cloned beside PPO (`demo_cloning`), running normalisation of observations and rewards
 //! around any learner (`normalize`, SB3's `VecNormalize`), Fourier features of the
 //! observation around any learner (`fourier`), exploration noise correlated over an
 //! episode's steps (`correlated_noise`: PPO's `noise_correlation`, TD3's
@@ -18,6 +18,7 @@ pub mod agent;
 pub mod config;
 pub mod correlated_noise;
 pub mod critics;
+pub mod demo_cloning;
 pub mod demonstrations;
 pub mod fourier;
 pub mod kickstart;
@@ -43,6 +44,7 @@ mod test_support;
 
 pub use agent::{ActMode, Agent, AgentError, Experience, Metrics};
 pub use config::{ConfigError, NetConfig, OffPolicyConfig};
+pub use demo_cloning::DemoCloningConfig;
 pub use demonstrations::Demonstration;
 pub use fourier::{FourierConfig, FourierFeatures};
 pub use kickstart::KickstartConfig;

@@ -169,6 +169,9 @@ pub struct Normalized {
     returns: RunningMoments,
     /// Discounted return of each training env so far.
     running: Vec<f64>,
+    /// Demonstrated episodes whose observations and returns the moments hold (the first
+    /// ones of every hand: a list handed again only grows at its end).
+    demos_merged: usize,
 }
 
 impl Normalized {
@@ -181,6 +184,7 @@ impl Normalized {
             obs: RunningMoments::new(width),
             returns: RunningMoments::new(1),
             running: Vec::new(),
+            demos_merged: 0,
         }
     }
 
@@ -337,6 +341,7 @@ impl Agent for Normalized {
         self.returns.put(snap, "normalize.returns");
         let bits: Vec<u64> = self.running.iter().map(|x| x.to_bits()).collect();
         snap.put_u64s("normalize.running", bits);
+        snap.put_u64("normalize.demos_merged", self.demos_merged as u64);
     }
 
     fn load_state(&mut self, snap: &Snapshot<'_>) -> Result<(), SnapshotError> {
@@ -345,28 +350,38 @@ impl Agent for Normalized {
         self.returns.take(snap, "normalize.returns")?;
         let bits = snap.u64s("normalize.running")?;
         self.running = bits.iter().map(|&b| f64::from_bits(b)).collect();
+        // Checkpoints from before the count keep what this agent was handed.
+        if snap.contains("normalize.demos_merged") {
+            self.demos_merged = snap.u64("normalize.demos_merged")? as usize;
+        }
         Ok(())
     }
 
-    /// The demonstrations as the inner agent learns from them. They seed the moments
-    /// before any step is played: their observations merge into the observation moments,
-    /// the discounted return of each of their steps into the return moments; then their
-    /// observations are normalised and their rewards scaled with those moments. Handed
-    /// once, at the start of a run (a resume hands them to a fresh agent, then replaces
-    /// the moments by the checkpoint's, so the rows are the uninterrupted run's).
+    /// The demonstrations as the inner agent learns from them. The episodes not handed
+    /// before merge into the moments (their observations into the observation moments,
+    /// the discounted return of each of their steps into the return moments: at the start
+    /// of a run they seed the moments before any step is played); then every episode's
+    /// observations are normalised and rewards scaled with the moments as they stand. A
+    /// list handed again (`[dagger]`'s aggregate after each round) must keep the episodes
+    /// handed before at its head: they are normalised anew, not merged again. The count
+    /// merged is part of the state, so a resume that hands the files to a fresh agent
+    /// before replacing the moments by the checkpoint's, or hands the aggregate after,
+    /// sees the rows of the uninterrupted run.
     fn set_demonstrations(&mut self, episodes: &[Demonstration<'_>]) -> Result<usize, String> {
         let w = self.obs_dim();
         if episodes.iter().any(|e| e.obs.len() != e.rewards.len() * w) {
             // Not a table's episodes: the inner agent names the one at fault.
             return self.inner.set_demonstrations(episodes);
         }
+        let new = &episodes[self.demos_merged.min(episodes.len())..];
+        self.demos_merged = episodes.len();
         if self.config.obs {
-            for e in episodes {
+            for e in new {
                 self.obs.update(e.obs);
             }
         }
         if self.config.reward {
-            for e in episodes {
+            for e in new {
                 let mut ret = 0.0;
                 let returns: Vec<f32> = e
                     .rewards
@@ -581,6 +596,38 @@ mod tests {
             let want = r / var.sqrt();
             assert!((f64::from(*got) - want).abs() < 1e-3, "{got} vs {want}");
         }
+    }
+
+    /// A list handed again with episodes added at its end merges only those: the moments
+    /// are those of one hand of the whole list, across a checkpoint too; every row is
+    /// handed on normalised with the moments as they stand.
+    #[test]
+    fn a_list_handed_again_merges_only_its_new_episodes() {
+        let demo = |obs| Demonstration {
+            obs,
+            actions: &[0.0],
+            rewards: &[1.0],
+            terminated: true,
+            absorbing: false,
+        };
+        let (a, b) = (demo(&[1.0, 10.0]), demo(&[5.0, 50.0]));
+        let (mut once, _) = wrapped(NormalizeConfig::default());
+        once.set_demonstrations(&[a, b]).unwrap();
+        let (mut grown, log) = wrapped(NormalizeConfig::default());
+        grown.set_demonstrations(&[a]).unwrap();
+        grown.set_demonstrations(&[a, b]).unwrap();
+        grown.set_demonstrations(&[a, b]).unwrap();
+        assert_eq!(grown.obs_moments(), once.obs_moments());
+        assert_eq!(grown.returns, once.returns);
+        // The last hand: both rows normalised with the moments of the two (means 3, 30).
+        let last = &log.lock().unwrap()[3..];
+        assert!(last[0].0[0] < 0.0 && last[1].0[0] > 0.0, "{last:?}");
+        let mut snap = Snapshot::new();
+        grown.save_state(&mut snap);
+        let (mut resumed, _) = wrapped(NormalizeConfig::default());
+        resumed.load_state(&snap).unwrap();
+        resumed.set_demonstrations(&[a, b]).unwrap();
+        assert_eq!(resumed.obs_moments(), once.obs_moments());
     }
 
     #[test]
