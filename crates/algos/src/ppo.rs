@@ -1150,25 +1150,28 @@ mod tests {
             .collect()
     }
 
+    /// The metric `name` of one update's metrics, if logged.
+    fn value(m: &[(&str, f64)], name: &str) -> Option<f64> {
+        m.iter().find(|(n, _)| *n == name).map(|(_, v)| *v)
+    }
+
+    /// The squared error of the policy's means from [`teacher`]'s actions on 100 states
+    /// none of the tests trains on, per state.
+    fn error(ppo: &mut Ppo) -> f32 {
+        let obs: Vec<f32> = (0..300).map(|i| (i as f32 * 0.731 + 0.2).sin()).collect();
+        let means = ppo.act(&obs, ActMode::Deterministic);
+        (means.iter().zip(&teacher(&obs)))
+            .map(|(m, a)| (m - a).powi(2))
+            .sum::<f32>()
+            / 100.0
+    }
+
     /// Kickstarted, the policy's means come to the teacher's actions on states it never
     /// saw (a tenth of the squared error of PPO alone, which follows the rewards), the
     /// logged cloning loss falls and its weight follows the schedule; off, nothing of it
     /// runs.
     #[test]
     fn a_kickstarted_policy_clones_its_teacher() {
-        let value =
-            |m: &[(&str, f64)], name: &str| m.iter().find(|(n, _)| *n == name).map(|(_, v)| *v);
-        let error = |ppo: &mut Ppo| {
-            let obs: Vec<f32> = (0..300).map(|i| (i as f32 * 0.731 + 0.2).sin()).collect();
-            let means = ppo.act(&obs, ActMode::Deterministic);
-            let labels = teacher(&obs);
-            means
-                .iter()
-                .zip(&labels)
-                .map(|(m, a)| (m - a).powi(2))
-                .sum::<f32>()
-                / 100.0
-        };
         let mut c = small();
         c.kickstart = KickstartConfig {
             teacher: Some(foosball_env::OpponentKind::Shooter),
@@ -1202,16 +1205,6 @@ mod tests {
     /// `[ppo.demonstrations]` the agent refuses them and nothing of it runs.
     #[test]
     fn handed_demonstrations_are_cloned_after_each_update() {
-        let value =
-            |m: &[(&str, f64)], name: &str| m.iter().find(|(n, _)| *n == name).map(|(_, v)| *v);
-        let error = |ppo: &mut Ppo| {
-            let obs: Vec<f32> = (0..300).map(|i| (i as f32 * 0.731 + 0.2).sin()).collect();
-            let means = ppo.act(&obs, ActMode::Deterministic);
-            (means.iter().zip(&teacher(&obs)))
-                .map(|(m, a)| (m - a).powi(2))
-                .sum::<f32>()
-                / 100.0
-        };
         let obs: Vec<f32> = (0..600).map(|i| (i as f32 * 1.37 + 0.5).cos()).collect();
         let actions = teacher(&obs);
         let rewards = vec![0.0; 200];
@@ -1263,8 +1256,6 @@ mod tests {
             ..SelfImitationConfig::default()
         };
         let (with, updates) = drive(c, true, 4);
-        let value =
-            |m: &[(&str, f64)], name: &str| m.iter().find(|(n, _)| *n == name).map(|(_, v)| *v);
         let rows: Vec<f64> = updates
             .iter()
             .map(|m| value(m, "self_imitation_rows").unwrap())
