@@ -5,6 +5,7 @@
 //! Every `every` env steps of training a round runs: the learner plays `episodes`
 //! episodes of its own (networks only, deterministic or sampled actions), from starts of
 //! stream [`DAGGER`]; in each, one step `t` is drawn uniformly and the planner searches
+//! (the round's searches side by side on rayon's threads, each on a table of its own)
 //! from the state reached there ([`PlanStart`]: the episode's seed and the learner's first
 //! `t` actions: the table is deterministic, so the state is the learner's exactly), its
 //! first sampling centred on what the learner played from `t` on. Where a plan scores,
@@ -26,16 +27,29 @@ use foosball_env::{FoosballEnv, FoosballInfo, StepInfo, Transition};
 use foosball_nets::{Snapshot, SnapshotError};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
 
-/// The teacher of a run with `[dagger]`: its table, the demonstrations of the run's files
-/// and the labels aggregated so far.
+/// The teacher of a run with `[dagger]`: the demonstrations of the run's files and the
+/// labels aggregated so far.
 pub struct Dagger {
     config: DaggerConfig,
     run: RunConfig,
-    table: FoosballEnv,
     files: Vec<DemoEpisode>,
     state: DaggerState,
 }
+
+/// One query of a round: the learner's episode it starts from (its seed and actions)
+/// and the step drawn.
+struct Query {
+    seed: u64,
+    actions: Vec<[f32; ACTION_DIM]>,
+    at: usize,
+    search_seed: u64,
+}
+
+/// What one query found: the agent steps its search simulated and, where a plan
+/// scored, the labelled episode.
+type Answer = (u64, Option<DemoEpisode>);
 
 /// What a checkpoint keeps of the teacher: the rounds played and every label.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -175,11 +189,10 @@ impl Dagger {
         let Some(c) = &config.dagger else {
             return Ok(None);
         };
-        let table = FoosballEnv::new(config.env.clone()).map_err(|e| format!("env.{e}"))?;
+        FoosballEnv::new(config.env.clone()).map_err(|e| format!("env.{e}"))?;
         Ok(Some(Self {
             config: c.clone(),
             run: config.clone(),
-            table,
             files: file_demonstrations(config)?,
             state: state.unwrap_or_default(),
         }))
@@ -230,51 +243,41 @@ impl Dagger {
             record: true,
         };
         let played = play_agent(agent, c.actions, &episodes).map_err(|e| e.to_string())?;
+        // The steps are drawn in episode order; the searches then run side by side
+        // (rayon), each on a table of its own, their answers kept in episode order: the
+        // labels are the same whatever the thread count.
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let mut round = Round::default();
-        for (k, episode) in played.iter().enumerate() {
-            let steps = episode.trajectory.as_ref().expect("recorded episodes");
-            let actions: Vec<[f32; ACTION_DIM]> = steps
-                .actions
-                .chunks_exact(ACTION_DIM)
-                .map(|a| a.try_into().expect("a full row"))
-                .collect();
-            round.learner_steps += actions.len() as u64;
-            let at = rng.random_range(0..actions.len());
-            let start = PlanStart {
-                seed: episode.seed,
-                prefix: &actions[..at],
-            };
-            let warm = centred_on(&actions[at..], c.planner.segments, c.planner.segment_steps);
-            let from = Some((&warm, c.planner.initial_std));
-            let search_seed = derive_seed(seed, DAGGER, k as u64 + 1);
-            let found = search(&mut self.table, start, search_seed, &c.planner, from)
-                .map_err(|e| format!("dagger: {e}"))?;
-            round.queries += 1;
-            round.simulated_steps += found.simulated_steps;
-            if !found.outcome.scored {
-                continue;
-            }
-            let mut label = Label::default();
-            let cap = Some(c.planner.max_rollout_steps);
-            follow(
-                &mut self.table,
-                start,
-                &found.plan,
-                c.planner.segment_steps,
-                cap,
-                &mut label,
+        let queries: Vec<Query> = (played.iter().enumerate())
+            .map(|(k, episode)| {
+                let steps = episode.trajectory.as_ref().expect("recorded episodes");
+                let actions: Vec<[f32; ACTION_DIM]> = (steps.actions.chunks_exact(ACTION_DIM))
+                    .map(|a| a.try_into().expect("a full row"))
+                    .collect();
+                round.learner_steps += actions.len() as u64;
+                Query {
+                    seed: episode.seed,
+                    at: rng.random_range(0..actions.len()),
+                    actions,
+                    search_seed: derive_seed(seed, DAGGER, k as u64 + 1),
+                }
+            })
+            .collect();
+        let answers: Vec<Result<Answer, String>> = (queries.par_iter())
+            .map_init(
+                || FoosballEnv::new(self.run.env.clone()).expect("checked by Dagger::start"),
+                |table, q| answer(table, &self.run, c, q),
             )
-            .map_err(|e| format!("dagger: {e}"))?;
-            round.labelled += 1;
-            round.rows += label.steps.rewards.len();
-            self.state.labels.push(DemoEpisode {
-                obs: as_observed(&self.run, &label.steps.obs),
-                actions: label.steps.actions,
-                rewards: label.steps.rewards,
-                terminated: label.terminated,
-                absorbing: label.absorbing,
-            });
+            .collect();
+        for answer in answers {
+            let (simulated, label) = answer?;
+            round.queries += 1;
+            round.simulated_steps += simulated;
+            if let Some(label) = label {
+                round.labelled += 1;
+                round.rows += label.rewards.len();
+                self.state.labels.push(label);
+            }
         }
         self.state.rounds += 1;
         if round.labelled > 0 {
@@ -282,6 +285,52 @@ impl Dagger {
         }
         Ok(round)
     }
+}
+
+/// The planner's answer to query `q` on `table` (a table of `run`'s game): it searches
+/// from the queried step, its first sampling centred on what the learner played from
+/// there; where a plan scores, the states from that step on with the plan's actions and
+/// rewards, as the run's agent observes them.
+fn answer(
+    table: &mut FoosballEnv,
+    run: &RunConfig,
+    c: &DaggerConfig,
+    q: &Query,
+) -> Result<Answer, String> {
+    let start = PlanStart {
+        seed: q.seed,
+        prefix: &q.actions[..q.at],
+    };
+    let warm = centred_on(
+        &q.actions[q.at..],
+        c.planner.segments,
+        c.planner.segment_steps,
+    );
+    let from = Some((&warm, c.planner.initial_std));
+    let found = search(table, start, q.search_seed, &c.planner, from)
+        .map_err(|e| format!("dagger: {e}"))?;
+    if !found.outcome.scored {
+        return Ok((found.simulated_steps, None));
+    }
+    let mut label = Label::default();
+    let cap = Some(c.planner.max_rollout_steps);
+    follow(
+        table,
+        start,
+        &found.plan,
+        c.planner.segment_steps,
+        cap,
+        &mut label,
+    )
+    .map_err(|e| format!("dagger: {e}"))?;
+    let episode = DemoEpisode {
+        obs: as_observed(run, &label.steps.obs),
+        actions: label.steps.actions,
+        rewards: label.steps.rewards,
+        terminated: label.terminated,
+        absorbing: label.absorbing,
+    };
+    Ok((found.simulated_steps, Some(episode)))
 }
 
 /// A plan of `segments` pieces of `segment_steps` steps centred on `played` (the

@@ -99,6 +99,29 @@ fn the_planner_labels_states_the_learner_reached_with_goals() {
     assert_eq!(teacher.hand(agent.as_mut()), Ok(rows - cut));
 }
 
+/// The searches of a round run side by side: one thread or three, the same labels.
+#[test]
+fn a_round_labels_the_same_whatever_the_thread_count() {
+    let c = config(&config_text(TEACHER)).unwrap();
+    let rounds_on = |threads| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut agent = build_agent(&c, &device(&c).unwrap());
+            let mut teacher = Dagger::start(&c, None).unwrap().unwrap();
+            let rounds: Vec<_> = (0..3)
+                .map(|_| teacher.round(agent.as_mut()).unwrap())
+                .collect();
+            (rounds, teacher.state().clone())
+        })
+    };
+    let one = rounds_on(1);
+    assert!(!one.1.labels.is_empty(), "no label to compare");
+    assert_eq!(rounds_on(3), one);
+}
+
 /// Trains `text` into `dir/name`: the test metrics and the scalars file.
 fn run(dir: &Path, name: &str, text: &str) -> Result<(Vec<u8>, String), String> {
     let out = dir.join(name);
