@@ -169,9 +169,18 @@ pub struct Normalized {
     returns: RunningMoments,
     /// Discounted return of each training env so far.
     running: Vec<f64>,
-    /// Demonstrated episodes whose observations and returns the moments hold (the first
-    /// ones of every hand: a list handed again only grows at its end).
-    demos_merged: usize,
+    /// The last hand of demonstrations that added episodes: how many the list held (the
+    /// moments hold their observations and returns; a list handed again only grows at
+    /// its end) and the moments every row was normalised with then.
+    handed: Option<Handed>,
+}
+
+/// What [`Normalized`] keeps of the demonstrations it handed on.
+#[derive(Clone, Debug, PartialEq)]
+struct Handed {
+    episodes: usize,
+    obs: RunningMoments,
+    returns: RunningMoments,
 }
 
 impl Normalized {
@@ -184,7 +193,7 @@ impl Normalized {
             obs: RunningMoments::new(width),
             returns: RunningMoments::new(1),
             running: Vec::new(),
-            demos_merged: 0,
+            handed: None,
         }
     }
 
@@ -195,16 +204,21 @@ impl Normalized {
 
     /// `obs` (`[n, obs_dim]`) as the inner agent sees it.
     pub fn observation(&self, obs: &[f32]) -> Vec<f32> {
+        self.observation_with(&self.obs, obs)
+    }
+
+    /// `obs` standardised with `moments`.
+    fn observation_with(&self, moments: &RunningMoments, obs: &[f32]) -> Vec<f32> {
         if !self.config.obs {
             return obs.to_vec();
         }
-        let (w, c) = (self.obs.mean.len(), self.config.clip_obs);
+        let (w, c) = (moments.mean.len(), self.config.clip_obs);
         obs.iter()
             .enumerate()
             .map(|(k, &x)| {
                 let j = k % w;
-                let z = (f64::from(x) - self.obs.mean[j])
-                    / (self.obs.var[j] + self.config.epsilon).sqrt();
+                let z = (f64::from(x) - moments.mean[j])
+                    / (moments.var[j] + self.config.epsilon).sqrt();
                 (z as f32).clamp(-c, c)
             })
             .collect()
@@ -212,10 +226,15 @@ impl Normalized {
 
     /// `rewards` as the inner agent is paid them, with the return moments as they stand.
     fn scaled(&self, rewards: &[f32]) -> Vec<f32> {
+        self.scaled_with(&self.returns, rewards)
+    }
+
+    /// `rewards` divided by the return's standard deviation in `returns`.
+    fn scaled_with(&self, returns: &RunningMoments, rewards: &[f32]) -> Vec<f32> {
         if !self.config.reward {
             return rewards.to_vec();
         }
-        let scale = (self.returns.var[0] + self.config.epsilon).sqrt();
+        let scale = (returns.var[0] + self.config.epsilon).sqrt();
         let c = self.config.clip_reward;
         rewards
             .iter()
@@ -341,7 +360,11 @@ impl Agent for Normalized {
         self.returns.put(snap, "normalize.returns");
         let bits: Vec<u64> = self.running.iter().map(|x| x.to_bits()).collect();
         snap.put_u64s("normalize.running", bits);
-        snap.put_u64("normalize.demos_merged", self.demos_merged as u64);
+        if let Some(h) = &self.handed {
+            snap.put_u64("normalize.handed.episodes", h.episodes as u64);
+            h.obs.put(snap, "normalize.handed.obs");
+            h.returns.put(snap, "normalize.handed.returns");
+        }
     }
 
     fn load_state(&mut self, snap: &Snapshot<'_>) -> Result<(), SnapshotError> {
@@ -350,9 +373,17 @@ impl Agent for Normalized {
         self.returns.take(snap, "normalize.returns")?;
         let bits = snap.u64s("normalize.running")?;
         self.running = bits.iter().map(|&b| f64::from_bits(b)).collect();
-        // Checkpoints from before the count keep what this agent was handed.
-        if snap.contains("normalize.demos_merged") {
-            self.demos_merged = snap.u64("normalize.demos_merged")? as usize;
+        // A checkpoint of a run handed nothing (or from before the record) keeps what
+        // this agent was handed.
+        if snap.contains("normalize.handed.episodes") {
+            let (mut obs, mut returns) = (self.obs.clone(), self.returns.clone());
+            obs.take(snap, "normalize.handed.obs")?;
+            returns.take(snap, "normalize.handed.returns")?;
+            self.handed = Some(Handed {
+                episodes: snap.u64("normalize.handed.episodes")? as usize,
+                obs,
+                returns,
+            });
         }
         Ok(())
     }
@@ -363,18 +394,19 @@ impl Agent for Normalized {
     /// of a run they seed the moments before any step is played); then every episode's
     /// observations are normalised and rewards scaled with the moments as they stand. A
     /// list handed again (`[dagger]`'s aggregate after each round) must keep the episodes
-    /// handed before at its head: they are normalised anew, not merged again. The count
-    /// merged is part of the state, so a resume that hands the files to a fresh agent
-    /// before replacing the moments by the checkpoint's, or hands the aggregate after,
-    /// sees the rows of the uninterrupted run.
+    /// handed before at its head: they are normalised anew, not merged again. A list
+    /// with nothing new is normalised with the moments of the last hand that added
+    /// episodes, which are part of the state with their count: a resume that hands the
+    /// files to a fresh agent before replacing the moments by the checkpoint's, or hands
+    /// the aggregate after, gives the inner agent the rows of the uninterrupted run.
     fn set_demonstrations(&mut self, episodes: &[Demonstration<'_>]) -> Result<usize, String> {
         let w = self.obs_dim();
         if episodes.iter().any(|e| e.obs.len() != e.rewards.len() * w) {
             // Not a table's episodes: the inner agent names the one at fault.
             return self.inner.set_demonstrations(episodes);
         }
-        let new = &episodes[self.demos_merged.min(episodes.len())..];
-        self.demos_merged = episodes.len();
+        let before = self.handed.as_ref().map_or(0, |h| h.episodes);
+        let new = &episodes[before.min(episodes.len())..];
         if self.config.obs {
             for e in new {
                 self.obs.update(e.obs);
@@ -394,9 +426,19 @@ impl Agent for Normalized {
                 self.returns.update(&returns);
             }
         }
-        let seen: Vec<(Vec<f32>, Vec<f32>)> = episodes
-            .iter()
-            .map(|e| (self.observation(e.obs), self.scaled(e.rewards)))
+        if !new.is_empty() || self.handed.is_none() {
+            self.handed = Some(Handed {
+                episodes: episodes.len(),
+                obs: self.obs.clone(),
+                returns: self.returns.clone(),
+            });
+        }
+        let h = self.handed.as_ref().expect("set above");
+        let seen: Vec<(Vec<f32>, Vec<f32>)> = (episodes.iter())
+            .map(|e| {
+                let obs = self.observation_with(&h.obs, e.obs);
+                (obs, self.scaled_with(&h.returns, e.rewards))
+            })
             .collect();
         let normalised: Vec<Demonstration<'_>> = episodes
             .iter()
@@ -600,7 +642,8 @@ mod tests {
 
     /// A list handed again with episodes added at its end merges only those: the moments
     /// are those of one hand of the whole list, across a checkpoint too; every row is
-    /// handed on normalised with the moments as they stand.
+    /// handed on normalised with the moments as they stand, and a list with nothing new
+    /// as the last hand that added episodes normalised it.
     #[test]
     fn a_list_handed_again_merges_only_its_new_episodes() {
         let demo = |obs| Demonstration {
@@ -620,7 +663,7 @@ mod tests {
         assert_eq!(grown.obs_moments(), once.obs_moments());
         assert_eq!(grown.returns, once.returns);
         // The last hand: both rows normalised with the moments of the two (means 3, 30).
-        let last = &log.lock().unwrap()[3..];
+        let last = log.lock().unwrap()[3..].to_vec();
         assert!(last[0].0[0] < 0.0 && last[1].0[0] > 0.0, "{last:?}");
         let mut snap = Snapshot::new();
         grown.save_state(&mut snap);
@@ -628,6 +671,11 @@ mod tests {
         resumed.load_state(&snap).unwrap();
         resumed.set_demonstrations(&[a, b]).unwrap();
         assert_eq!(resumed.obs_moments(), once.obs_moments());
+        // Once the moments have moved, the same list again: the rows of that hand.
+        grown.act(&[100.0, 100.0], ActMode::Explore);
+        assert_ne!(grown.obs_moments(), once.obs_moments());
+        grown.set_demonstrations(&[a, b]).unwrap();
+        assert_eq!(log.lock().unwrap()[5..], last[..]);
     }
 
     #[test]
