@@ -189,7 +189,6 @@ impl Dagger {
         let Some(c) = &config.dagger else {
             return Ok(None);
         };
-        FoosballEnv::new(config.env.clone()).map_err(|e| format!("env.{e}"))?;
         Ok(Some(Self {
             config: c.clone(),
             run: config.clone(),
@@ -265,8 +264,11 @@ impl Dagger {
             .collect();
         let answers: Vec<Result<Answer, String>> = (queries.par_iter())
             .map_init(
-                || FoosballEnv::new(self.run.env.clone()).expect("checked by Dagger::start"),
-                |table, q| answer(table, &self.run, c, q),
+                || FoosballEnv::new(self.run.env.clone()).map_err(|e| format!("env.{e}")),
+                |table, q| match table {
+                    Ok(table) => answer(table, &self.run, c, q),
+                    Err(e) => Err(e.clone()),
+                },
             )
             .collect();
         for answer in answers {
