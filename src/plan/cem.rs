@@ -14,9 +14,11 @@
 //! mean, std  = their mean and standard deviation, per value (std >= min_std)
 //! ```
 //!
-//! stopping early when a candidate scores (`stop_when_scored`).
+//! stopping early when a candidate scores (`stop_when_scored`). A search started from a
+//! plan (`from`) may keep, instead of the best, the scoring candidate nearest that plan
+//! (`keep = "nearest"`: least `sum (candidate - from)^2` over pieces and values).
 
-use super::config::{Objective, PlannerConfig};
+use super::config::{Keep, Objective, PlannerConfig};
 use foosball_algos::EpisodeLog;
 use foosball_env::layout::ACTION_DIM;
 use foosball_env::{EnvError, EnvRng, FoosballConfig, FoosballEnv, FoosballInfo, Transition};
@@ -179,6 +181,9 @@ pub fn search(
 ) -> Result<Search, EnvError> {
     let c = config;
     let mut rng = EnvRng::seed_from_u64(search_seed);
+    let near = from
+        .map(|(plan, _)| plan.clone())
+        .filter(|_| c.keep == Keep::Nearest);
     let (mut mean, mut std) = match from {
         Some((plan, spread)) => (plan.clone(), vec![[spread; ACTION_DIM]; plan.len()]),
         None => initial(c),
@@ -223,13 +228,33 @@ pub fn search(
         scored.sort_by(|a, b| worth(&b.0).total_cmp(&worth(&a.0)));
         let elites: Vec<&Plan> = scored[..c.elites].iter().map(|(_, p)| p).collect();
         refit(&elites, c.min_std, &mut mean, &mut std);
-        let (outcome, plan) = &scored[0];
+        let kept = near
+            .as_ref()
+            .and_then(|from| nearest_scoring(&scored, from))
+            .unwrap_or(0);
+        let (outcome, plan) = &scored[kept];
         best.outcome = *outcome;
         best.plan.clone_from(plan);
     }
     best.rollouts = rollouts;
     best.simulated_steps = simulated_steps;
     Ok(best)
+}
+
+/// Index of the scoring candidate nearest `from` (least sum of squared differences; the
+/// first of equals), `None` where none scores.
+fn nearest_scoring(candidates: &[(Outcome, Plan)], from: &Plan) -> Option<usize> {
+    let distance = |plan: &Plan| -> f32 {
+        plan.iter()
+            .zip(from)
+            .flat_map(|(p, f)| p.iter().zip(f).map(|(p, f)| (p - f).powi(2)))
+            .sum()
+    };
+    (candidates.iter().enumerate())
+        .filter(|(_, (outcome, _))| outcome.scored)
+        .map(|(k, (_, plan))| (k, distance(plan)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(k, _)| k)
 }
 
 /// The first iteration's sampling: mean 0, spread `initial_std`, per segment and value.
@@ -349,4 +374,29 @@ pub fn search_shared(
         rollouts,
         simulated_steps,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_nearest_scoring_candidate_is_kept_and_misses_are_passed_over() {
+        let plan = |x: f32| -> Plan { vec![[x; ACTION_DIM]; 3] };
+        let outcome = |scored| Outcome {
+            scored,
+            ..Outcome::default()
+        };
+        let from = plan(0.1);
+        // By value first: a far goal, a miss right on `from`, a nearer goal, a nearer one.
+        let candidates = vec![
+            (outcome(true), plan(0.9)),
+            (outcome(false), plan(0.1)),
+            (outcome(true), plan(-0.4)),
+            (outcome(true), plan(0.3)),
+        ];
+        assert_eq!(nearest_scoring(&candidates, &from), Some(3));
+        let misses = vec![(outcome(false), plan(0.1)), (outcome(false), plan(0.2))];
+        assert_eq!(nearest_scoring(&misses, &from), None);
+    }
 }

@@ -15,6 +15,21 @@ pub enum Objective {
     Return,
 }
 
+/// Which scoring plan a search keeps.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Keep {
+    /// The one of highest value under the objective (with `score`: the soonest goal).
+    #[default]
+    Best,
+    /// Among the iteration's plans that score, the one nearest the plan the search
+    /// started from (least sum of squared differences over its pieces; the learner's own
+    /// actions under `[dagger]`): answers to nearby states of one learner that agree with
+    /// each other and with what it played. The best by value where no plan scores or the
+    /// search started from none.
+    Nearest,
+}
+
 /// The cross-entropy search of [`super::cem`]: how many candidate plans, how long, how
 /// they are refined. Its cost per episode is at most `population * iterations` rollouts of
 /// at most `max_rollout_steps` agent steps each.
@@ -44,6 +59,9 @@ pub struct PlannerConfig {
     /// Stop searching once a plan scores (the score rate is what the ceiling measures);
     /// false searches the whole budget for the highest return.
     pub stop_when_scored: bool,
+    /// Which scoring plan it keeps (`best`, default, or `nearest`).
+    #[serde(default, skip_serializing_if = "is_best")]
+    pub keep: Keep,
     /// 0 (default): a plan searched for each episode from its own start. N > 0: one plan
     /// searched once for N starts of the planner's own stream (its worth the mean over
     /// them) and played unchanged, open loop, on every episode: what a single motion
@@ -64,6 +82,10 @@ fn is_zero(n: &usize) -> bool {
     *n == 0
 }
 
+fn is_best(k: &Keep) -> bool {
+    *k == Keep::Best
+}
+
 impl Default for PlannerConfig {
     fn default() -> Self {
         Self {
@@ -77,6 +99,7 @@ impl Default for PlannerConfig {
             max_rollout_steps: 2000,
             objective: Objective::Score,
             stop_when_scored: true,
+            keep: Keep::Best,
             shared_starts: 0,
             refine_std: None,
         }

@@ -11,4 +11,4 @@ pub mod cem;
 pub mod config;
 
 pub use cem::{Outcome, Plan, PlanStart, Search, SharedSearch, follow, search, search_shared};
-pub use config::{Objective, PlannerConfig};
+pub use config::{Keep, Objective, PlannerConfig};

@@ -3,13 +3,15 @@
 //! Collect `n_steps` vec-env steps with the stochastic policy (truncated episodes
 //! bootstrapped: `r += gamma V(s_final)`), compute GAE, then `n_epochs` passes of
 //! shuffled minibatches minimising
-//! `L = L_clip + ent_coef * (-mean(entropy)) + vf_coef * MSE(returns, V(s))`,
+//! `L = pg_coef * L_clip + ent_coef * (-mean(entropy)) + vf_coef * MSE(returns, V(s))`,
 //! `L_clip = -mean(min(A ratio, A clip(ratio, 1 - eps, 1 + eps)))`,
 //! `ratio = exp(log pi(a|s) - log pi_old(a|s))`, advantages normalised per minibatch,
 //! plus, under `bounds_loss_coef` > 0, rl_games' bound loss on the policy's means
 //! `bounds_loss_coef * mean over rows of sum_j (max(mu_j - b, 0)^2 + min(mu_j + b, 0)^2)`,
 //! `b = bounds_soft_bound`: the env clips actions to `[-1, 1]`, so a mean far past a
-//! bound explores nothing on that action.
+//! bound explores nothing on that action. `pg_coef` is 1 in PPO; at 0 the return trains
+//! only the value network and the policy learns from its cloning terms alone (below):
+//! DAgger's supervised learner with a critic beside it.
 //! Exploring actions are `mean + exp(log_std) x` with `x` standard normal, drawn anew
 //! each step (SB3) or an AR(1) process over the episode (`noise_correlation`).
 //! Under `[ppo.self_imitation]` each rollout's update is followed by self-imitation steps
@@ -20,7 +22,7 @@
 //! demonstrations the agent holds ([`crate::demo_cloning`]).
 //!
 //! The minibatch step computes the loss's gradients with respect to the networks'
-//! outputs (`dL/d log pi = ratio dL/d ratio` with `dL/d ratio = -A / n` where the
+//! outputs (`dL/d log pi = ratio dL/d ratio` with `dL/d ratio = -pg_coef A / n` where the
 //! unclipped term is the smaller or the ratio lies inside the clip range, else 0;
 //! `dL/d entropy = -ent_coef / n`; `dL/dV = 2 vf_coef (V - returns) / n`) and lets the
 //! networks walk them back: Burn's autodiff, or the host MLP path (`backend = "host"`,
@@ -68,6 +70,9 @@ pub struct PpoConfig {
     pub gae_lambda: f32,
     /// Clip range `eps` of the probability ratio.
     pub clip_range: f32,
+    /// Weight of the clipped surrogate `L_clip` (1: PPO; 0: the policy learns only from
+    /// `kickstart` and `demonstrations`, the return only the value network).
+    pub pg_coef: f32,
     /// Entropy bonus coefficient.
     pub ent_coef: f32,
     /// Value loss coefficient.
@@ -116,6 +121,7 @@ impl Default for PpoConfig {
             gamma: DEFAULT_GAMMA,
             gae_lambda: 0.95,
             clip_range: 0.2,
+            pg_coef: 1.0,
             ent_coef: 0.0,
             vf_coef: 0.5,
             normalize_advantage: true,
@@ -150,6 +156,11 @@ impl PpoConfig {
             "must be in [0, 1]",
         )?;
         ensure(self.clip_range > 0.0, "clip_range", "must be positive")?;
+        ensure(
+            self.pg_coef.is_finite() && self.pg_coef >= 0.0,
+            "pg_coef",
+            "must be finite and >= 0",
+        )?;
         ensure(self.ent_coef.is_finite(), "ent_coef", "must be finite")?;
         ensure(
             self.vf_coef.is_finite() && self.vf_coef >= 0.0,
@@ -354,7 +365,8 @@ fn minibatch_step<N: PpoNetworks>(
         (Some((_, d)), None) | (None, Some((_, d))) => Some(d.clone()),
         (None, None) => None,
     };
-    let report = nets.step(&s.d_log_prob, &d_entropy, &d_values, d_means.as_deref(), lr);
+    let d_log_prob = r.affine(&s.d_log_prob, c.pg_coef, 0.0);
+    let report = nets.step(&d_log_prob, &d_entropy, &d_values, d_means.as_deref(), lr);
     let mut metrics = vec![
         ("policy_loss", r.scalar(&s.loss)),
         ("value_loss", r.scalar(&value_loss)),
@@ -867,7 +879,7 @@ mod tests {
             .sum_dim(1)
             .mean()
             .mul_scalar(c.bounds_loss_coef);
-        let mut loss = policy_loss
+        let mut loss = policy_loss.mul_scalar(c.pg_coef)
             + entropy.mean().neg().mul_scalar(c.ent_coef)
             + value_loss.mul_scalar(c.vf_coef)
             + bounds;
@@ -951,10 +963,41 @@ mod tests {
             };
             check_against_autodiff(kickstarted, (38, 8), vec![64, 64]);
         }
-        // The cloning term alone.
+        // The cloning term alone, and with the surrogate weighted down or off.
         let mut kickstarted = PpoConfig::default();
         kickstarted.kickstart.teacher = Some(foosball_env::OpponentKind::Dribbler);
-        check_against_autodiff(kickstarted, (38, 8), vec![64, 64]);
+        check_against_autodiff(kickstarted.clone(), (38, 8), vec![64, 64]);
+        for pg_coef in [0.3, 0.0] {
+            let weighted = PpoConfig {
+                pg_coef,
+                ..kickstarted.clone()
+            };
+            check_against_autodiff(weighted, (38, 8), vec![64, 64]);
+        }
+    }
+
+    #[test]
+    fn with_the_surrogate_off_the_return_moves_only_the_value_network() {
+        let c = PpoConfig {
+            pg_coef: 0.0,
+            ..PpoConfig::default()
+        };
+        let (o, a) = (38, 8);
+        let mb = minibatch(64, (o, a), 9, None);
+        let start = Ppo::new(o, a, c.clone(), 3, &device()).model();
+        let adam = || Adam::new(c.net.adam.clone());
+        let mut host = HostNetworks::from_modules(start.clone(), adam()).unwrap();
+        minibatch_step(&mut host, &c, (o, a), &mb, 1e-2).unwrap();
+        let after = host.modules();
+        let params = |m: &ActorCritic| {
+            (
+                host_params(&m.policy).concat(),
+                host_params(&m.value).concat(),
+            )
+        };
+        let ((policy0, value0), (policy1, value1)) = (params(&start), params(&after));
+        assert_eq!(policy0, policy1);
+        assert_ne!(value0, value1);
     }
 
     /// One self-imitation step as the paper writes its loss, gradients by Burn's autodiff
