@@ -182,7 +182,7 @@ pub fn search(
     let c = config;
     let mut rng = EnvRng::seed_from_u64(search_seed);
     let near = from
-        .map(|(plan, _)| plan.clone())
+        .map(|(plan, _)| plan)
         .filter(|_| c.keep == Keep::Nearest);
     let (mut mean, mut std) = match from {
         Some((plan, spread)) => (plan.clone(), vec![[spread; ACTION_DIM]; plan.len()]),
@@ -229,7 +229,6 @@ pub fn search(
         let elites: Vec<&Plan> = scored[..c.elites].iter().map(|(_, p)| p).collect();
         refit(&elites, c.min_std, &mut mean, &mut std);
         let kept = near
-            .as_ref()
             .and_then(|from| nearest_scoring(&scored, from))
             .unwrap_or(0);
         let (outcome, plan) = &scored[kept];
