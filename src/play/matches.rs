@@ -285,6 +285,7 @@ pub fn match_table(table: &FoosballConfig, rules: &MatchRules) -> FoosballConfig
     t.observation.hide_black_rods = false;
     t.rules.possession = rules.possession;
     t.rules.possession_limit_s = rules.possession_limit_s;
+    t.rules.end_on_lost_ball = false; // a training rule: a match's points end only as above
     t
 }
 

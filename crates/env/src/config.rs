@@ -25,6 +25,7 @@
 //! | `rules.end_on_goal` | false | false | false | false | false | false | true | false | false |
 //! | `rules.serve_again` (a point's end serves again, the episode goes on) | false | false | false | false | false | false | false | false | false |
 //! | `rules.possession` (ITSF's possession limits end a point) | false | false | false | false | false | false | false | false | false |
+//! | `rules.end_on_lost_ball` (a point ends when its server loses the ball) | false | false | false | false | false | false | false | false | false |
 //! | `reward.goal` (cm, in `ball_frame`) | (0, 65) | (0, 65) | (0, 65) | (0, 65) | (0, 65) | (0, 64) | (0, 64) | (0, 65) | (0, 64) |
 //! | `reward.goal_line_y` (in black's goal when y >= it) | 65 | 65 | 65 | 65 | 65 | 64 | 64 | 65 | 64 |
 //! | `reward.own_goal_line_y` (in yellow's goal when y <= -it) | 65 | 65 | 65 | 65 | 65 | 64 | 64 | 65 | 64 |
@@ -669,6 +670,15 @@ pub struct EpisodeRules {
     /// The possession limits, seconds: a five-man rod's and every other rod's (default
     /// ITSF's 10 and 15).
     pub possession_limit_s: [f32; 2],
+    /// A point ends when its server loses the ball (default false: the paper has no such
+    /// end). The side on whose half the point's
+    /// ball was served (world y <= 0: yellow) attacks; once the ball passes out of its
+    /// midfield rod's reach towards its own goal (world y < -7.5 - 6.71 cm for yellow,
+    /// y > 14.21 for black) it has lost the ball and the point ends, unpaid
+    /// ([`crate::EndReason::LostBall`], terminated; under `start.serve = "conceded"` the
+    /// other side serves). Yellow's serves are attack drills in which a missed shot costs
+    /// no counter-attack, black's defence drills that end when yellow wins the ball.
+    pub end_on_lost_ball: bool,
 }
 
 impl Default for EpisodeRules {
@@ -684,6 +694,7 @@ impl Default for EpisodeRules {
             end_episodes: true,
             possession: false,
             possession_limit_s: crate::possession::ITSF_LIMITS_S,
+            end_on_lost_ball: false,
         }
     }
 }

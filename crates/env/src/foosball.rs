@@ -66,11 +66,14 @@ pub enum EndReason {
     /// One of black's rods held the ball past its possession limit under
     /// `rules.possession` (terminated).
     BlackHeld,
+    /// The side that served lost the ball under `rules.end_on_lost_ball`: it passed out of that
+    /// side's midfield rod's reach towards its own goal (terminated, unpaid).
+    LostBall,
 }
 
 impl EndReason {
     /// Every reason, in a fixed order (for tallies).
-    pub const ALL: [EndReason; 9] = [
+    pub const ALL: [EndReason; 10] = [
         EndReason::Scored,
         EndReason::Conceded,
         EndReason::Stagnant,
@@ -80,6 +83,7 @@ impl EndReason {
         EndReason::SpinFoul,
         EndReason::YellowHeld,
         EndReason::BlackHeld,
+        EndReason::LostBall,
     ];
 
     /// Its name in logs (snake case).
@@ -94,6 +98,7 @@ impl EndReason {
             EndReason::SpinFoul => "spin_foul",
             EndReason::YellowHeld => "yellow_held",
             EndReason::BlackHeld => "black_held",
+            EndReason::LostBall => "lost_ball",
         }
     }
 
@@ -103,7 +108,7 @@ impl EndReason {
     }
 
     /// True for the ends of a point, which `rules.serve_again` turns into a serve: a goal,
-    /// a stagnant ball, a ball without progress, a ball held too long.
+    /// a stagnant ball, a ball without progress, a ball held too long, a lost ball.
     pub fn ends_point(self) -> bool {
         matches!(
             self,
@@ -113,12 +118,14 @@ impl EndReason {
                 | EndReason::NoProgress
                 | EndReason::YellowHeld
                 | EndReason::BlackHeld
+                | EndReason::LostBall
         )
     }
 
     /// The side that loses the ball by this end: the scoring side after a goal (the
     /// side scored upon serves), the holding side after a possession foul; `None` for the
-    /// other ends.
+    /// other ends (a lost ball is the point's attacker's, which the end alone
+    /// does not name).
     pub fn loser_of_the_ball(self) -> Option<Team> {
         match self {
             EndReason::Scored | EndReason::YellowHeld => Some(Team::Yellow),
@@ -230,6 +237,8 @@ struct Episode {
     /// Agent steps replayed along a recorded episode before the agent took over.
     replayed: Option<u32>,
     possession: PossessionClock,
+    /// The side whose half the point's ball was served on (world y <= 0: yellow's).
+    attacker: Team,
 }
 
 /// The foosball table as a reinforcement-learning environment (see the module docs).
@@ -488,6 +497,7 @@ impl FoosballEnv {
             serves: 0,
             replayed: None,
             possession: PossessionClock::default(),
+            attacker: served_by(y),
         });
         self.emit(&state, obs, true);
     }
@@ -781,6 +791,8 @@ impl FoosballEnv {
         } else if ep.stagnant_steps >= rules.stagnant_steps && ep.possession.holder().is_none() {
             // (The clock runs only under `rules.possession`: without it nobody holds.)
             Some(EndReason::Stagnant)
+        } else if rules.end_on_lost_ball && lost_ball(ep.attacker, y) {
+            Some(EndReason::LostBall)
         } else if ep.no_progress_steps >= rules.no_progress_steps {
             Some(EndReason::NoProgress)
         } else if ep.steps >= self.config.max_episode_steps {
@@ -830,6 +842,8 @@ impl FoosballEnv {
                 self.server = Team::Yellow;
             } else if let Some(loser) = point_end.and_then(EndReason::loser_of_the_ball) {
                 self.server = loser.other();
+            } else if point_end == Some(EndReason::LostBall) {
+                self.server = ep.attacker.other();
             }
         }
         if serve {
@@ -844,6 +858,7 @@ impl FoosballEnv {
             ep.in_goals = [false; 2];
             ep.spin = SpinMeter::new(&state[ROD_ANGLE]);
             ep.possession = PossessionClock::default();
+            ep.attacker = served_by(state[BALL_POS.start + 1]);
         }
         ep.state = state;
         ep.over = end.is_some();
@@ -869,6 +884,19 @@ impl FoosballEnv {
             },
         })
     }
+}
+
+/// The side a ball served at world `y` (cm) belongs to: yellow's half is y <= 0.
+fn served_by(y: f32) -> Team {
+    if y <= 0.0 { Team::Yellow } else { Team::Black }
+}
+
+/// Whether `attacker` has lost a ball whose centre lies at world `y` (cm) under
+/// `rules.end_on_lost_ball`: it has passed out of the reach of the attacker's midfield rod
+/// ([`geometry::MAN_REACH_Y`] from its axis) towards the attacker's own goal.
+fn lost_ball(attacker: Team, y: f32) -> bool {
+    let midfield = geometry::RODS[2].yellow_y; // in the attacker's own frame
+    attacker.sign() * y < midfield - geometry::MAN_REACH_Y
 }
 
 /// How far from the centre a ball's centre can lie on the playfield, world |x| and |y|, cm.
