@@ -671,13 +671,13 @@ pub struct EpisodeRules {
     /// ITSF's 10 and 15).
     pub possession_limit_s: [f32; 2],
     /// A point ends when its server loses the ball (default false: the paper has no such
-    /// end). The side on whose half the point's
-    /// ball was served (world y <= 0: yellow) attacks; once the ball passes out of its
-    /// midfield rod's reach towards its own goal (world y < -7.5 - 6.71 cm for yellow,
-    /// y > 14.21 for black) it has lost the ball and the point ends, unpaid
-    /// ([`crate::EndReason::LostBall`], terminated; under `start.serve = "conceded"` the
-    /// other side serves). Yellow's serves are attack drills in which a missed shot costs
-    /// no counter-attack, black's defence drills that end when yellow wins the ball.
+    /// end). The side on whose half the point's ball was served (world y <= 0: yellow)
+    /// attacks; once the ball passes out of its midfield rod's reach towards its own goal
+    /// (world y < -7.5 - 6.71 cm for yellow, y > 14.21 for black) it has lost the ball
+    /// and the point ends, unpaid ([`crate::EndReason::LostBall`], terminated; under
+    /// `start.serve = "conceded"` the other side serves). Yellow's serves are attack
+    /// drills in which a missed shot costs no counter-attack, black's defence drills that
+    /// end when yellow wins the ball.
     pub end_on_lost_ball: bool,
 }
 

@@ -66,8 +66,8 @@ pub enum EndReason {
     /// One of black's rods held the ball past its possession limit under
     /// `rules.possession` (terminated).
     BlackHeld,
-    /// The side that served lost the ball under `rules.end_on_lost_ball`: it passed out of that
-    /// side's midfield rod's reach towards its own goal (terminated, unpaid).
+    /// The side that served lost the ball under `rules.end_on_lost_ball`: it passed out
+    /// of that side's midfield rod's reach towards its own goal (terminated, unpaid).
     LostBall,
 }
 
