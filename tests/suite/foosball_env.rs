@@ -440,9 +440,9 @@ fn under_the_possession_rule_a_rod_that_holds_the_ball_too_long_loses_it() {
     assert!(e.contains("rules.possession_limit_s"), "{e}");
 }
 
-/// Under `rules.end_on_lost_ball` the side whose half the ball was served on attacks, and the point
-/// ends, unpaid, once the ball passes out of its midfield rod's reach (6.71 cm from the
-/// axis, world y -7.5 for yellow, 7.5 for black) towards its own goal; a ball going
+/// Under `rules.end_on_lost_ball` the side whose half the ball was served on attacks,
+/// and the point ends once the ball passes out of its midfield rod's reach (6.71 cm from
+/// the axis, world y -7.5 for yellow, 7.5 for black) towards its own goal; a ball going
 /// forward plays on, and without the rule a ball going back is played as before. Under
 /// `start.serve = "conceded"` the other side serves next.
 #[test]
@@ -456,19 +456,12 @@ fn under_the_lost_ball_rule_a_ball_lost_behind_the_servers_midfield_ends_the_poi
         let mut env = placed(config.clone(), at, v);
         let ts = play_out(&mut env, steps);
         let last = ts.last().unwrap();
-        let reward: f32 = ts.iter().map(|t| t.reward).sum();
         let served = env.reset(None)[BALL_POS.start + 1];
-        (
-            ts.len(),
-            last.info.end,
-            last.terminated,
-            reward,
-            served > 0.0,
-        )
+        (ts.len(), last.info.end, last.terminated, served > 0.0)
     };
     // Yellow served (y = -20); the ball rolls back from y = -10 at 100 cm/s: out of the
     // midfield's reach (y < -14.21) after about 4.2 cm, 5 steps of 10 ms.
-    let (steps, end, terminated, _, black_next) = ends(&config, [6.0, -10.0], [0.0, -100.0], 40);
+    let (steps, end, terminated, black_next) = ends(&config, [6.0, -10.0], [0.0, -100.0], 40);
     assert_eq!(end, Some(EndReason::LostBall));
     assert!(terminated && (4..=6).contains(&steps), "{steps}");
     assert!(black_next, "yellow lost the ball: black serves");
