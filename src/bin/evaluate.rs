@@ -7,6 +7,7 @@ use clap::Parser;
 use foosball_rl::cli::finish;
 use foosball_rl::config::TestActions;
 use foosball_rl::play::contestant::Contestant;
+use foosball_rl::play::flow::SideFlow;
 use foosball_rl::play::matches::{self, Kickoff, MatchRules, Tally, match_table};
 use foosball_rl::play::metrics::wilson_points;
 use foosball_rl::play::player::{Player, PlayerArgs};
@@ -79,8 +80,10 @@ fn head_to_head(player: &Player, opponent: &Contestant, args: &Args) -> Result<S
     let played = matches::head_to_head(&table, &rules, &me, opponent, matches / 2, seed)?;
     let [t, as_yellow, as_black] = matches::tallies(&played);
     let mut o = Tally::default();
-    for (on_yellow, r) in &played {
-        o.add(r.side(!*on_yellow));
+    let mut flow = SideFlow::default();
+    for p in &played {
+        o.add(p.result.side(!p.a_on_yellow));
+        flow.add(&p.flow.side(p.a_on_yellow));
     }
     let side = |s: &Tally| {
         format!(
@@ -93,7 +96,7 @@ fn head_to_head(player: &Player, opponent: &Contestant, args: &Args) -> Result<S
     Ok(format!(
         "{} against {opponent}: {matches} matches, {}-{}-{} (W-D-L), goals {}:{}, \
          points share {:.0} % [{:.0}, {:.0}] (95 % Wilson); spins per minute {:.2} vs {:.2}; \
-         as yellow {}, as black {} (kick-off: {})",
+         as yellow {}, as black {} (kick-off: {})\n  its ball: {}",
         match hold {
             Some(rods) => format!("{} holding {rods}", player.describe()),
             None => player.describe(),
@@ -110,7 +113,8 @@ fn head_to_head(player: &Player, opponent: &Contestant, args: &Args) -> Result<S
         o.spins_per_minute(dt),
         side(&as_yellow),
         side(&as_black),
-        rules.kickoff
+        rules.kickoff,
+        flow.summary()
     ))
 }
 

@@ -35,6 +35,7 @@ use serde::{Deserialize, Serialize};
 
 use super::contestant::Contestant;
 use super::evaluation::OwnedPolicy;
+use super::flow::BallFlow;
 use foosball_env::config::BallFrame;
 use foosball_env::geometry::Team;
 
@@ -265,12 +266,11 @@ impl Tally {
 
 /// The first contestant's matches of [`head_to_head`] added up: `[all, as yellow, as
 /// black]` (under `kickoff = "yellow"` every serve lies on yellow's side).
-pub fn tallies(played: &[(bool, MatchResult)]) -> [Tally; 3] {
+pub fn tallies(played: &[Played]) -> [Tally; 3] {
     let mut t = [Tally::default(); 3];
-    for &(on_yellow, r) in played {
-        let side = r.side(on_yellow);
-        t[0].add(side);
-        t[if on_yellow { 1 } else { 2 }].add(side);
+    for p in played {
+        t[0].add(p.a_side());
+        t[if p.a_on_yellow { 1 } else { 2 }].add(p.a_side());
     }
     t
 }
@@ -332,6 +332,17 @@ pub fn play_match(
     black: &Contestant,
     seed: u64,
 ) -> Result<MatchResult, String> {
+    play_match_traced(table, rules, yellow, black, seed).map(|(result, _)| result)
+}
+
+/// [`play_match`] with where its ball went ([`BallFlow`]).
+pub fn play_match_traced(
+    table: &FoosballConfig,
+    rules: &MatchRules,
+    yellow: &Contestant,
+    black: &Contestant,
+    seed: u64,
+) -> Result<(MatchResult, BallFlow), String> {
     let mut act = yellow.policy(table, derive_seed(seed, MATCHES, u64::MAX))?;
     let black = black.policy(table, derive_seed(seed, MATCHES, u64::MAX - 1))?;
     let opponent = PolicyOpponent::new(black, table.ball_frame);
@@ -339,12 +350,18 @@ pub fn play_match(
         .map_err(|e| format!("match table: env.{e}"))?;
     let limit = (f64::from(rules.time_limit_s) / f64::from(table.agent_dt())).round() as u64;
     let mut result = MatchResult::default();
+    let mut flow = BallFlow::default();
+    let ball_xy = |env: &FoosballEnv| {
+        env.table()
+            .map_or([0.0; 2], |t| std::array::from_fn(|i| t.ball_position()[i]))
+    };
     let mut server = Team::Yellow;
     while result.steps < limit && result.yellow_goals.max(result.black_goals) < rules.goals_to_win {
         env.serve_on(server);
         let mut obs = env.reset(Some(derive_seed(seed, MATCHES, u64::from(result.serves))));
         result.serves += 1;
         let mut spins = [0; 2];
+        let mut xy = ball_xy(&env);
         while result.steps < limit {
             let mut action = act(&obs);
             action.resize(ACTION_DIM, 0.0);
@@ -356,10 +373,16 @@ pub fn play_match(
             result.steps += 1;
             obs = next;
             spins = t.info.spins;
+            let after = ball_xy(&env);
+            flow.step(xy, after);
+            xy = after;
             match t.info.end {
                 Some(EndReason::Scored) => result.yellow_goals += 1,
                 Some(EndReason::Conceded) => result.black_goals += 1,
                 _ => {}
+            }
+            if let Some(end) = t.info.end {
+                flow.end(end, xy[1]);
             }
             if t.done() {
                 server = rules.kickoff.next_server(server, t.info.end);
@@ -369,7 +392,10 @@ pub fn play_match(
         result.yellow_spins += spins[0];
         result.black_spins += spins[1];
     }
-    Ok(result)
+    if result.steps >= limit {
+        flow.time_limits += 1;
+    }
+    Ok((result, flow))
 }
 
 /// The serve seed of round `round` of a pair under a league or head-to-head `seed`: both
@@ -378,8 +404,26 @@ pub fn round_seed(seed: u64, round: u32) -> u64 {
     derive_seed(seed, MATCHES, u64::from(round))
 }
 
+/// One match of a [`head_to_head`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Played {
+    /// The first contestant played yellow.
+    pub a_on_yellow: bool,
+    /// How it ended.
+    pub result: MatchResult,
+    /// Where its ball went.
+    pub flow: BallFlow,
+}
+
+impl Played {
+    /// The first contestant's view of the match.
+    pub fn a_side(&self) -> SideResult {
+        self.result.side(self.a_on_yellow)
+    }
+}
+
 /// `rounds` rounds of `a` against `b`, each a match with `a` on yellow and one with `b`
-/// on yellow from the same serves: `(a_on_yellow, result)` in that order.
+/// on yellow from the same serves, in that order.
 pub fn head_to_head(
     table: &FoosballConfig,
     rules: &MatchRules,
@@ -387,12 +431,18 @@ pub fn head_to_head(
     b: &Contestant,
     rounds: u32,
     seed: u64,
-) -> Result<Vec<(bool, MatchResult)>, String> {
+) -> Result<Vec<Played>, String> {
     let mut out = Vec::with_capacity(2 * rounds as usize);
     for round in 0..rounds {
         let s = round_seed(seed, round);
-        out.push((true, play_match(table, rules, a, b, s)?));
-        out.push((false, play_match(table, rules, b, a, s)?));
+        for (a_on_yellow, yellow, black) in [(true, a, b), (false, b, a)] {
+            let (result, flow) = play_match_traced(table, rules, yellow, black, s)?;
+            out.push(Played {
+                a_on_yellow,
+                result,
+                flow,
+            });
+        }
     }
     Ok(out)
 }
@@ -434,13 +484,17 @@ mod tests {
 
     #[test]
     fn tallies_split_the_matches_by_side() {
-        let m = |yellow_goals, black_goals| MatchResult {
-            yellow_goals,
-            black_goals,
-            ..MatchResult::default()
+        let m = |a_on_yellow, yellow_goals, black_goals| Played {
+            a_on_yellow,
+            result: MatchResult {
+                yellow_goals,
+                black_goals,
+                ..MatchResult::default()
+            },
+            flow: BallFlow::default(),
         };
         // As yellow: a 2:0 win and a 1:1 draw; as black: a loss, yellow won 5:0.
-        let played = [(true, m(2, 0)), (true, m(1, 1)), (false, m(5, 0))];
+        let played = [m(true, 2, 0), m(true, 1, 1), m(false, 5, 0)];
         let [all, yellow, black] = tallies(&played);
         assert_eq!((all.matches, all.wins, all.draws, all.losses), (3, 1, 1, 1));
         assert_eq!((all.scored, all.let_in), (3, 6));

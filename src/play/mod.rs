@@ -15,11 +15,14 @@
 //! - [`player`]: who plays test episodes for `evaluate` and `render`;
 //! - [`animation`]: episodes as captioned animations (GIF, or MP4 through ffmpeg);
 //! - [`contestant`]: who plays one side of a two-sided match (networks or scripted);
-//! - [`matches`]: two-sided matches to N goals, black driven by any contestant.
+//! - [`matches`]: two-sided matches to N goals, black driven by any contestant;
+//! - [`flow`]: where a match's ball goes (time by rod, crossings towards goal, how points
+//!   end).
 
 pub mod animation;
 pub mod contestant;
 pub mod evaluation;
+pub mod flow;
 pub mod matches;
 pub mod metrics;
 pub mod planned;

@@ -244,11 +244,23 @@ fn a_head_to_head_swaps_sides_on_the_same_serves() {
     let shooter = Contestant::Scripted(ScriptedPolicy::Shooter);
     let random = Contestant::Scripted(ScriptedPolicy::Random);
     let played = head_to_head(&table, &rules, &shooter, &random, 2, 9).unwrap();
-    let sides: Vec<bool> = played.iter().map(|(yellow, _)| *yellow).collect();
+    let sides: Vec<bool> = played.iter().map(|p| p.a_on_yellow).collect();
     assert_eq!(sides, [true, false, true, false]);
     // Match 1 of round 1 is the shooter on black against random, served from round 1's seed.
     let again = play_match(&table, &rules, &random, &shooter, round_seed(9, 1)).unwrap();
-    assert_eq!(played[3].1, again);
+    assert_eq!(played[3].result, again);
+    // Its ball flow tells the same goals and lasts as long as the match.
+    for p in &played {
+        let (me, flow) = (p.a_side(), p.flow.side(p.a_on_yellow));
+        assert_eq!((flow.scored, flow.let_in), (me.scored, me.let_in));
+        let steps = flow.own_reach.iter().chain(&flow.their_reach).sum::<u64>() + flow.no_reach;
+        assert_eq!(steps, p.result.steps);
+        assert_eq!(
+            flow.time_limits,
+            u32::from(me.scored.max(me.let_in) < rules.goals_to_win)
+        );
+        assert_eq!(p.flow.side(!p.a_on_yellow).attacks_past, flow.let_past);
+    }
 }
 
 #[test]
