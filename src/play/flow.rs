@@ -8,7 +8,7 @@
 //! other side's.
 
 use foosball_env::EndReason;
-use foosball_env::geometry::{GOAL_HALF_WIDTH, NUM_RODS, rod_y};
+use foosball_env::geometry::{GOAL_HALF_WIDTH, NUM_RODS, Team, rod_y};
 use foosball_env::possession::rod_in_reach;
 
 /// One match's (or several matches') ball flow, in the world frame: rods by global index
@@ -33,9 +33,21 @@ pub struct BallFlow {
     pub held_behind_goalie: [u32; 2],
     /// Matches that ran to their time limit.
     pub time_limits: u32,
+    /// Points served by yellow and by black (a point runs from a serve to its end).
+    pub serves: [u32; 2],
+    /// Of them, the points the serving side won by a goal.
+    pub scored_on_serve: [u32; 2],
+    /// The side that served the point in play (0 yellow, 1 black).
+    server: usize,
 }
 
 impl BallFlow {
+    /// Counts a serve by `side`: the point that follows is that side's.
+    pub fn serve(&mut self, side: Team) {
+        self.server = usize::from(side == Team::Black);
+        self.serves[self.server] += 1;
+    }
+
     /// Counts one agent step in which the ball's centre moved from world (x, y) `before`
     /// to `after` (cm).
     pub fn step(&mut self, before: [f32; 2], after: [f32; 2]) {
@@ -62,6 +74,14 @@ impl BallFlow {
     pub fn end(&mut self, reason: EndReason, ball_y: f32) {
         if let Some(i) = EndReason::ALL.iter().position(|&r| r == reason) {
             self.ends[i] += 1;
+        }
+        let scorer = match reason {
+            EndReason::Scored => Some(0),
+            EndReason::Conceded => Some(1),
+            _ => None,
+        };
+        if scorer == Some(self.server) {
+            self.scored_on_serve[self.server] += 1;
         }
         match reason {
             EndReason::YellowHeld if ball_y < rod_y(0) => self.held_behind_goalie[0] += 1,
@@ -111,6 +131,10 @@ impl BallFlow {
             held_theirs_behind_goalie: self.held_behind_goalie[usize::from(yellow)],
             dead_balls: self.ended(EndReason::Stagnant),
             time_limits: self.time_limits,
+            own_serves: self.serves[usize::from(!yellow)],
+            scored_on_own_serve: self.scored_on_serve[usize::from(!yellow)],
+            their_serves: self.serves[usize::from(yellow)],
+            scored_on_their_serve: self.scored_on_serve[usize::from(yellow)],
         }
     }
 }
@@ -149,6 +173,14 @@ pub struct SideFlow {
     pub dead_balls: u32,
     /// Matches that ran to their time limit.
     pub time_limits: u32,
+    /// Points it served.
+    pub own_serves: u32,
+    /// Of them, those it won by a goal.
+    pub scored_on_own_serve: u32,
+    /// Points the other side served.
+    pub their_serves: u32,
+    /// Of them, those the other side won by a goal.
+    pub scored_on_their_serve: u32,
 }
 
 impl SideFlow {
@@ -171,6 +203,10 @@ impl SideFlow {
         self.held_theirs_behind_goalie += o.held_theirs_behind_goalie;
         self.dead_balls += o.dead_balls;
         self.time_limits += o.time_limits;
+        self.own_serves += o.own_serves;
+        self.scored_on_own_serve += o.scored_on_own_serve;
+        self.their_serves += o.their_serves;
+        self.scored_on_their_serve += o.scored_on_their_serve;
     }
 
     /// One line: the ball's time by rod (per cent of agent steps), the crossings of each
@@ -196,7 +232,7 @@ impl SideFlow {
              past their A/M/D/G towards their goal {} (G within the goal's width {}), \
              goals {}; past own A/M/D/G {} ({}), goals {}; balls held too long: own {} \
              ({} behind the goalie), theirs {} ({}); dead balls {}; matches to the time \
-             limit {}",
+             limit {}; points served: own {} (won by a goal {}), theirs {} ({})",
             pct(&self.own_reach),
             pct(&self.their_reach),
             100.0 * self.no_reach as f64 / total,
@@ -211,7 +247,11 @@ impl SideFlow {
             self.held_theirs,
             self.held_theirs_behind_goalie,
             self.dead_balls,
-            self.time_limits
+            self.time_limits,
+            self.own_serves,
+            self.scored_on_own_serve,
+            self.their_serves,
+            self.scored_on_their_serve
         )
     }
 }
@@ -223,6 +263,7 @@ mod tests {
     #[test]
     fn a_ball_rolling_into_blacks_goal_crosses_blacks_rods_in_order() {
         let mut f = BallFlow::default();
+        f.serve(Team::Yellow);
         // From yellow's midfield (y = -7.5) to black's goal line, 1 cm a step.
         let ys: Vec<f32> = (0..=72).map(|k| -7.5 + k as f32).collect();
         for w in ys.windows(2) {
@@ -253,6 +294,14 @@ mod tests {
         );
         assert_eq!((yellow.held_own, yellow.held_own_behind_goalie), (1, 0));
         assert_eq!((black.held_own, black.held_own_behind_goalie), (1, 1));
+        assert_eq!((yellow.own_serves, yellow.scored_on_own_serve), (1, 1));
+        assert_eq!((black.their_serves, black.scored_on_their_serve), (1, 1));
+        // Black serves and yellow scores: a goal against the serve.
+        f.serve(Team::Black);
+        f.end(EndReason::Scored, 64.5);
+        let yellow = f.side(true);
+        assert_eq!((yellow.their_serves, yellow.scored_on_their_serve), (1, 0));
+        assert_eq!(yellow.scored, 2);
         assert_eq!(black.own_reach, yellow.their_reach);
         let steps: u64 = f.reach_steps.iter().sum();
         assert_eq!(steps, 72);

@@ -358,6 +358,7 @@ pub fn play_match_traced(
     let mut server = Team::Yellow;
     while result.steps < limit && result.yellow_goals.max(result.black_goals) < rules.goals_to_win {
         env.serve_on(server);
+        flow.serve(server);
         let mut obs = env.reset(Some(derive_seed(seed, MATCHES, u64::from(result.serves))));
         result.serves += 1;
         let mut spins = [0; 2];

@@ -260,6 +260,8 @@ fn a_head_to_head_swaps_sides_on_the_same_serves() {
             u32::from(me.scored.max(me.let_in) < rules.goals_to_win)
         );
         assert_eq!(p.flow.side(!p.a_on_yellow).attacks_past, flow.let_past);
+        assert_eq!(flow.own_serves + flow.their_serves, p.result.serves);
+        assert!(flow.scored_on_own_serve + flow.scored_on_their_serve <= me.scored + me.let_in);
     }
 }
 
