@@ -6,7 +6,8 @@ use crate::plan::PlannerConfig;
 use foosball_algos::{
     FourierConfig, NetConfig, NormalizeConfig, OffPolicyConfig, PpoConfig, SacConfig, Td3Config,
 };
-use foosball_env::{ConfigError, FoosballConfig, ObservationKind, OpponentKind, Serve};
+use foosball_env::starts::validate_drills;
+use foosball_env::{ConfigError, Drill, FoosballConfig, ObservationKind, OpponentKind, Serve};
 use foosball_nets::Backend;
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
@@ -637,6 +638,9 @@ pub struct RunConfig {
     pub self_play: Option<SelfPlayConfig>,
     /// Training episodes begun along a teacher's (`None`: off).
     pub curriculum: Option<CurriculumConfig>,
+    /// Practice spots for a share of the training envs' serves (`[[drills]]`; empty:
+    /// off). Evaluations and the test serve from `env.start` alone.
+    pub drills: Vec<Drill>,
     /// The planner relabelling states the learner reaches (`None`: off).
     pub dagger: Option<DaggerConfig>,
     /// Running normalisation of the learner's observations and rewards, SB3's
@@ -667,6 +671,8 @@ struct RunConfigFile {
     self_play: Option<SelfPlayConfig>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     curriculum: Option<CurriculumConfig>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    drills: Vec<Drill>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     dagger: Option<DaggerConfig>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -700,6 +706,7 @@ impl TryFrom<RunConfigFile> for RunConfig {
             algorithm,
             self_play: f.self_play,
             curriculum: f.curriculum,
+            drills: f.drills,
             dagger: f.dagger,
             normalize: f.normalize,
             fourier: f.fourier,
@@ -725,6 +732,7 @@ impl From<RunConfig> for RunConfigFile {
             td3,
             self_play: c.self_play,
             curriculum: c.curriculum,
+            drills: c.drills,
             dagger: c.dagger,
             normalize: c.normalize,
             fourier: c.fourier,
@@ -953,6 +961,7 @@ impl RunConfig {
         if let Some(sp) = &self.self_play {
             sp.validate()?;
         }
+        validate_drills(&self.drills)?;
         if let Some(c) = &self.curriculum {
             c.validate()?;
             if self.self_play.is_some() {
@@ -1158,16 +1167,31 @@ fn key_on_line(text: &str, line: usize) -> Option<String> {
     })
 }
 
-/// 1-based line where the dotted `key` is written (or its deepest written parent).
+/// 1-based line where the dotted `key` is written (or its deepest written parent); a
+/// part `name[i]` is the `i`-th table of the array `name` (`[[name]]`).
 fn line_of_key(text: &str, key: &str) -> Option<usize> {
     let doc = toml::de::DeTable::parse(text).ok()?;
     let mut table = doc.get_ref();
     let mut line = None;
     for part in key.split('.') {
-        let Some((k, v)) = table.iter().find(|(k, _)| k.get_ref().as_ref() == part) else {
+        let (name, index) = match part.strip_suffix(']').and_then(|p| p.split_once('[')) {
+            Some((name, i)) => (name, i.parse::<usize>().ok()),
+            None => (part, None),
+        };
+        let Some((k, v)) = table.iter().find(|(k, _)| k.get_ref().as_ref() == name) else {
             break;
         };
         line = Some(line_at(text, k.span().start));
+        let v = match (v.get_ref(), index) {
+            (toml::de::DeValue::Array(items), Some(i)) => match items.get(i) {
+                Some(item) => {
+                    line = Some(line_at(text, item.span().start));
+                    item
+                }
+                None => break,
+            },
+            _ => v,
+        };
         match v.get_ref() {
             toml::de::DeValue::Table(t) => table = t,
             _ => break,

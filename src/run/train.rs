@@ -274,6 +274,10 @@ pub fn train(
             )
             .map_err(TrainError::Init)?,
         };
+        let envs = envs
+            .into_iter()
+            .map(|env| env.with_drills(config.drills.clone()))
+            .collect();
         let envs = VecEnv::new(envs, threads)?;
         let mut collector = Collector::with_seeds(envs, &restart_seeds(p.seed, done, n));
         if let Some(labels) = teacher_labels(config) {

@@ -18,6 +18,7 @@ mod config_files;
 mod curriculum;
 mod dagger;
 mod demonstrations;
+mod drills;
 mod evaluation;
 mod foosball_env;
 mod image_obs;

@@ -36,7 +36,7 @@ use crate::possession::{PossessionClock, is_five_man};
 use crate::render::{Frame, Renderer};
 use crate::roster::opponent_for;
 use crate::spin::SpinMeter;
-use crate::starts::{EpisodeStarts, ReplayStart};
+use crate::starts::{Drill, EpisodeStarts, ReplayStart, drill_at};
 use crate::table::{PhysicsParams, Table};
 
 /// Rods per side: yellow's are the first four of the state's rod blocks.
@@ -252,6 +252,8 @@ pub struct FoosballEnv {
     episode: Option<Episode>,
     /// Chooses training episodes' starts along recorded episodes (None: every start drawn).
     starts: Option<Box<dyn EpisodeStarts>>,
+    /// Practice spots for a share of the serves (empty: every serve from `start`).
+    drills: Vec<Drill>,
     /// The own stream, kept aside while a replayed episode runs on the recorded one's.
     own_rng: Option<EnvRng>,
     /// Agent steps taken since the env was built (replayed steps not counted).
@@ -292,6 +294,7 @@ impl FoosballEnv {
             table: None,
             episode: None,
             starts: None,
+            drills: Vec::new(),
             own_rng: None,
             agent_steps: 0,
             server: Team::Yellow,
@@ -302,6 +305,14 @@ impl FoosballEnv {
     /// [`crate::starts`]): asked at every reset without a seed.
     pub fn with_starts(mut self, starts: Box<dyn EpisodeStarts>) -> Self {
         self.starts = Some(starts);
+        self
+    }
+
+    /// This environment with a share of its serves put on practice spots ([`Drill`]; a
+    /// training env's, never an evaluation's). Valid drills assumed
+    /// ([`crate::starts::validate_drills`]); none leaves every draw as it was.
+    pub fn with_drills(mut self, drills: Vec<Drill>) -> Self {
+        self.drills = drills;
         self
     }
 
@@ -319,6 +330,7 @@ impl FoosballEnv {
             table: self.table.clone(),
             episode: self.episode.clone(),
             starts: None,
+            drills: self.drills.clone(),
             own_rng: self.own_rng.clone(),
             agent_steps: self.agent_steps,
             server: self.server,
@@ -435,15 +447,18 @@ impl FoosballEnv {
 
     /// Starts the episode recorded from `start.seed` and plays `start.actions` on it,
     /// the own stream kept aside; false where that episode ends on the way (another
-    /// game's recording), the own stream then still aside for the caller's draw.
+    /// game's recording), the own stream then still aside for the caller's draw. The
+    /// recorded part is served as recorded, without the drills.
     fn replay(&mut self, start: &ReplayStart, obs: &mut [f32]) -> bool {
         let own = self.own_rng.take().unwrap_or_else(|| self.rng.clone());
         self.own_rng = Some(own);
+        let drills = std::mem::take(&mut self.drills);
         self.start_episode(Some(start.seed), None, obs);
         let reached = start
             .actions
             .iter()
             .all(|action| matches!(self.advance(action, obs), Ok(t) if !t.done()));
+        self.drills = drills;
         if let Some(ep) = self.episode.as_mut() {
             ep.replayed = Some(start.actions.len() as u32);
         }
@@ -475,7 +490,7 @@ impl FoosballEnv {
             self.server = Team::Yellow;
         }
         let draw = self.draw_episode();
-        let drawn = serve_point(&self.config, self.server, &mut self.rng);
+        let drawn = serve_point(&self.config, &self.drills, self.server, &mut self.rng);
         let [x, y] = ball.unwrap_or(drawn);
         let table = Table::new(&draw.physics, [x, y]);
         let state = Self::observe(&table);
@@ -848,7 +863,7 @@ impl FoosballEnv {
         }
         if serve {
             // A match's serve: a fresh table (rods at neutral) with the episode's physics.
-            let point = serve_point(&self.config, self.server, &mut self.rng);
+            let point = serve_point(&self.config, &self.drills, self.server, &mut self.rng);
             *table = Table::new(&ep.draw.physics, point);
             state = Self::observe(table);
             ep.serves += 1;
@@ -907,15 +922,32 @@ fn ball_centre_limits() -> [f32; 2] {
     ]
 }
 
-/// Where a serve puts the ball (world x, y, cm): drawn from `config.start`, turned 180
-/// degrees about the centre where black serves (in a `black_share` of the serves, or when
-/// `server` is black under `start.serve = "conceded"`), kept on the field.
-fn serve_point(config: &FoosballConfig, server: Team, rng: &mut EnvRng) -> [f32; 2] {
+/// Where a serve puts the ball (world x, y, cm): drawn from `config.start`, or from the
+/// drill a first uniform draw picks when there are `drills`, turned 180 degrees about the
+/// centre where black serves (in a `black_share` of the serves, or when `server` is black
+/// under `start.serve = "conceded"`), kept on the field.
+fn serve_point(
+    config: &FoosballConfig,
+    drills: &[Drill],
+    server: Team,
+    rng: &mut EnvRng,
+) -> [f32; 2] {
     let s = &config.start;
-    let [x_mean, y_mean] = config.start_world();
+    let drill = if drills.is_empty() {
+        None
+    } else {
+        drill_at(drills, rng.random::<f32>())
+    };
+    let ([x_mean, y_mean], [x_std, y_std]) = match drill {
+        Some(d) => {
+            let [ox, oy, _] = config.ball_frame.origin();
+            ([d.x_mean + ox, d.y_mean + oy], [d.x_std, d.y_std])
+        }
+        None => (config.start_world(), [s.x_std, s.y_std]),
+    };
     let [limit_x, limit_y] = ball_centre_limits();
-    let x = (x_mean + s.x_std * gaussian(rng)).clamp(-limit_x, limit_x);
-    let y = (y_mean + s.y_std * gaussian(rng)).clamp(-limit_y, limit_y);
+    let x = (x_mean + x_std * gaussian(rng)).clamp(-limit_x, limit_x);
+    let y = (y_mean + y_std * gaussian(rng)).clamp(-limit_y, limit_y);
     let black_serves = match s.serve {
         Serve::Conceded => server == Team::Black,
         Serve::Drawn => s.black_share > 0.0 && rng.random::<f32>() < s.black_share,

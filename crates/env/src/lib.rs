@@ -57,7 +57,7 @@ pub use foosball::{EndReason, FoosballEnv, FoosballInfo, ResetOptions, ball_in_a
 pub use observation::{ObservationConfig, ObservationKind};
 pub use opponent::Opponent;
 pub use pendulum::Pendulum;
-pub use starts::{EpisodeStarts, ReplayStart};
+pub use starts::{Drill, EpisodeStarts, ReplayStart};
 pub use vec_env::{VecEnv, VecEnvError, VecStep};
 
 /// The random number generator every environment owns: ChaCha8, whose stream is fixed by

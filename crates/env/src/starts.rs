@@ -1,5 +1,6 @@
-//! Where a training episode begins: the table's own draw, or a point along a recorded
-//! episode (a teacher's trajectory, issue 49's reverse curriculum). A recorded episode is
+//! Where a training episode begins: the table's own draw, a practice spot for a share of
+//! the serves ([`Drill`]), or a point along a recorded episode (a teacher's trajectory,
+//! issue 49's reverse curriculum). A recorded episode is
 //! reached exactly, not approximately: the table is reset from the episode's own seed and
 //! its first actions are played again, so the state, the episode's counters and every
 //! random stream are where they were when it was recorded (on the same game; a caller
@@ -11,7 +12,84 @@
 //! next own draw, so the episodes it draws itself are the ones it would have drawn
 //! without the replayed ones in between.
 
+use serde::{Deserialize, Serialize};
+
+use crate::config_error::ConfigError;
 use crate::layout::ACTION_DIM;
+
+/// A practice spot for a share of a training env's serves: the ball at rest at
+/// x ~ N(x_mean, x_std²), y ~ N(y_mean, y_std²), cm in the env's `ball_frame` (as
+/// `start`'s numbers), kept on the field and turned onto black's side whenever `start`
+/// turns a serve there. Installed on training envs only
+/// ([`crate::FoosballEnv::with_drills`]): evaluations, tests and matches serve from
+/// `start`. E.g. `y_mean = -52` in the joint frame lies between yellow's goalie and its
+/// end wall, where a ball that its goalie does not play is held.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Drill {
+    /// Share of the serves, in [0, 1]; the drills' shares sum to at most 1, and the
+    /// serves left over are drawn from `start`.
+    pub share: f32,
+    /// Mean lateral position, cm.
+    pub x_mean: f32,
+    /// Its standard deviation, cm (default 0).
+    #[serde(default)]
+    pub x_std: f32,
+    /// Mean position along the table (towards black's goal), cm.
+    pub y_mean: f32,
+    /// Its standard deviation, cm (default 0).
+    #[serde(default)]
+    pub y_std: f32,
+}
+
+/// Rejects shares outside [0, 1] (or summing past 1), negative spreads and non-finite
+/// means, naming the key as `drills[i].key`.
+pub fn validate_drills(drills: &[Drill]) -> Result<(), ConfigError> {
+    let err = |i: usize, key: &str, message: String| {
+        ConfigError::new(format!("drills[{i}].{key}"), message)
+    };
+    for (i, d) in drills.iter().enumerate() {
+        if !(0.0..=1.0).contains(&d.share) {
+            return Err(err(
+                i,
+                "share",
+                format!("must be in [0, 1], got {}", d.share),
+            ));
+        }
+        for (key, v) in [("x_mean", d.x_mean), ("y_mean", d.y_mean)] {
+            if !v.is_finite() {
+                return Err(err(i, key, format!("must be finite, got {v}")));
+            }
+        }
+        for (key, v) in [("x_std", d.x_std), ("y_std", d.y_std)] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(err(
+                    i,
+                    key,
+                    format!("must be a finite number >= 0, got {v}"),
+                ));
+            }
+        }
+    }
+    let total: f32 = drills.iter().map(|d| d.share).sum();
+    if total > 1.0 + 1e-6 {
+        return Err(ConfigError::new(
+            "drills",
+            format!("the shares sum to {total}, past 1"),
+        ));
+    }
+    Ok(())
+}
+
+/// The drill a serve comes from, given `u` uniform in [0, 1): the first whose running
+/// share passes `u`; `None` (serve from `start`) past the last.
+pub fn drill_at(drills: &[Drill], u: f32) -> Option<&Drill> {
+    let mut reached = 0.0;
+    drills.iter().find(|d| {
+        reached += d.share;
+        u < reached
+    })
+}
 
 /// A start along a recorded episode: reset from `seed`, then play `actions`.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -98,6 +176,118 @@ mod tests {
             }
         }
         seen
+    }
+
+    fn drill(share: f32, x_mean: f32, y_mean: f32) -> Drill {
+        Drill {
+            share,
+            x_mean,
+            x_std: 0.0,
+            y_mean,
+            y_std: 0.0,
+        }
+    }
+
+    /// The ball's world (x, y) on `env`'s table, cm.
+    fn ball_xy(env: &FoosballEnv) -> [f32; 2] {
+        let [x, y, _] = env.table().unwrap().ball_position();
+        [x, y]
+    }
+
+    #[test]
+    fn a_drill_is_picked_by_the_running_share_of_the_draw() {
+        let drills = [drill(0.25, 1.0, 0.0), drill(0.5, 2.0, 0.0)];
+        let picked = |u| drill_at(&drills, u).map(|d| d.x_mean);
+        assert_eq!(picked(0.0), Some(1.0));
+        assert_eq!(picked(0.2499), Some(1.0));
+        assert_eq!(picked(0.25), Some(2.0));
+        assert_eq!(picked(0.7499), Some(2.0));
+        assert_eq!(picked(0.75), None, "past the drills: serve from `start`");
+        assert_eq!(drill_at(&[], 0.0), None);
+    }
+
+    #[test]
+    fn bad_drills_are_refused_by_their_key() {
+        let key = |drills: &[Drill]| validate_drills(drills).unwrap_err().key;
+        assert!(validate_drills(&[drill(0.5, 0.0, -52.0), drill(0.5, 0.0, 0.0)]).is_ok());
+        assert_eq!(key(&[drill(1.5, 0.0, 0.0)]), "drills[0].share");
+        assert_eq!(
+            key(&[drill(0.1, 0.0, 0.0), drill(0.1, f32::NAN, 0.0)]),
+            "drills[1].x_mean"
+        );
+        let mut spread = drill(0.1, 0.0, 0.0);
+        spread.y_std = -1.0;
+        assert_eq!(key(&[spread]), "drills[0].y_std");
+        assert_eq!(key(&[drill(0.6, 0.0, 0.0), drill(0.6, 0.0, 0.0)]), "drills");
+    }
+
+    #[test]
+    fn a_drill_serves_its_share_of_the_balls_at_its_spot_in_the_ball_frame() {
+        let config = FoosballConfig::default();
+        let [ox, oy, _] = config.ball_frame.origin();
+        let spot = [5.0 + ox, -52.0 + oy];
+        let mut drilled = env().with_drills(vec![drill(0.3, 5.0, -52.0)]);
+        let mut plain = env();
+        let mut at_spot = 0;
+        for seed in 0..200 {
+            drilled.reset(Some(seed));
+            plain.reset(Some(seed));
+            let ball = ball_xy(&drilled);
+            if ball == spot {
+                at_spot += 1;
+            } else {
+                assert!(
+                    ball[1] > -20.0,
+                    "seed {seed}: the paper's serve, by the centre"
+                );
+            }
+            assert!(
+                ball_xy(&plain)[1] > -20.0,
+                "no drill: every serve from `start`"
+            );
+        }
+        assert!(
+            (40..=80).contains(&at_spot),
+            "{at_spot} of 200 serves on the drill's spot, 60 expected"
+        );
+        let mut black = FoosballConfig::default();
+        black.start.black_share = 1.0;
+        let mut turned = FoosballEnv::new(black)
+            .unwrap()
+            .with_drills(vec![drill(1.0, 5.0, -52.0)]);
+        turned.reset(Some(3));
+        assert_eq!(
+            ball_xy(&turned),
+            [-spot[0], -spot[1]],
+            "black's serves are turned about the centre"
+        );
+    }
+
+    #[test]
+    fn a_replayed_start_is_served_as_recorded_beside_drills() {
+        let acts = actions(6, 4);
+        let mut recorder = env();
+        recorder.reset(Some(42));
+        let recorded = play(&mut recorder, &acts);
+        let start = ReplayStart {
+            seed: 42,
+            actions: acts[..3].to_vec(),
+        };
+        let (learner, _) = with_given(vec![Some(start)]);
+        let mut learner = learner.with_drills(vec![drill(1.0, 5.0, -52.0)]);
+        learner.reset(Some(7));
+        assert_eq!(learner.reset(None), recorded[2]);
+        assert_eq!(play(&mut learner, &acts[3..]), recorded[3..].to_vec());
+    }
+
+    #[test]
+    fn no_drills_leave_every_draw_as_it_was() {
+        let mut drilled = env().with_drills(Vec::new());
+        let mut plain = env();
+        let acts = actions(4, 3);
+        assert_eq!(drilled.reset(Some(11)), plain.reset(Some(11)));
+        assert_eq!(play(&mut drilled, &acts), play(&mut plain, &acts));
+        assert_eq!(drilled.reset(None), plain.reset(None));
     }
 
     #[test]
