@@ -178,6 +178,13 @@ mod tests {
         seen
     }
 
+    /// The observations of the episode reset from `seed` and stepped through `actions`.
+    fn recorded(seed: u64, actions: &[[f32; ACTION_DIM]]) -> Vec<Vec<f32>> {
+        let mut recorder = env();
+        recorder.reset(Some(seed));
+        play(&mut recorder, actions)
+    }
+
     fn drill(share: f32, x_mean: f32, y_mean: f32) -> Drill {
         Drill {
             share,
@@ -266,9 +273,7 @@ mod tests {
     #[test]
     fn a_replayed_start_is_served_as_recorded_beside_drills() {
         let acts = actions(6, 4);
-        let mut recorder = env();
-        recorder.reset(Some(42));
-        let recorded = play(&mut recorder, &acts);
+        let recorded = recorded(42, &acts);
         let start = ReplayStart {
             seed: 42,
             actions: acts[..3].to_vec(),
@@ -293,9 +298,7 @@ mod tests {
     #[test]
     fn a_replayed_start_is_the_recorded_state_and_the_episode_goes_on_as_recorded() {
         let acts = actions(9, 1);
-        let mut recorder = env();
-        recorder.reset(Some(42));
-        let recorded = play(&mut recorder, &acts);
+        let recorded = recorded(42, &acts);
         assert_eq!(recorded.len(), 9, "the recorded episode runs 9 steps");
         let start = ReplayStart {
             seed: 42,
