@@ -993,7 +993,7 @@ fn positive(key: &str, v: f32) -> Result<(), ConfigError> {
     }
 }
 
-fn non_negative(key: &str, v: f32) -> Result<(), ConfigError> {
+pub(crate) fn non_negative(key: &str, v: f32) -> Result<(), ConfigError> {
     if v.is_finite() && v >= 0.0 {
         Ok(())
     } else {

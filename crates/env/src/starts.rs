@@ -14,6 +14,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::config::non_negative;
 use crate::config_error::ConfigError;
 use crate::layout::ACTION_DIM;
 
@@ -62,13 +63,7 @@ pub fn validate_drills(drills: &[Drill]) -> Result<(), ConfigError> {
             }
         }
         for (key, v) in [("x_std", d.x_std), ("y_std", d.y_std)] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(err(
-                    i,
-                    key,
-                    format!("must be a finite number >= 0, got {v}"),
-                ));
-            }
+            non_negative(&format!("drills[{i}].{key}"), v)?;
         }
     }
     let total: f32 = drills.iter().map(|d| d.share).sum();
