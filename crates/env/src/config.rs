@@ -366,10 +366,15 @@ impl FoosballConfig {
             .find_map(|&key| first_difference(key.to_string(), ours.get(key), theirs.get(key)))
     }
 
+    /// A point `[x, y]` of the ball frame (cm) in world coordinates, cm.
+    pub fn to_world(&self, [x, y]: [f32; 2]) -> [f32; 2] {
+        let [ox, oy, _] = self.ball_frame.origin();
+        [x + ox, y + oy]
+    }
+
     /// The reward's goal point in world coordinates, cm.
     pub fn goal_world(&self) -> [f32; 2] {
-        let [ox, oy, _] = self.ball_frame.origin();
-        [self.reward.goal[0] + ox, self.reward.goal[1] + oy]
+        self.to_world(self.reward.goal)
     }
 
     /// World y past which the ball is in black's goal (inside the mouth), cm.
@@ -385,8 +390,7 @@ impl FoosballConfig {
 
     /// The ball start's means in world coordinates, cm.
     pub fn start_world(&self) -> [f32; 2] {
-        let [ox, oy, _] = self.ball_frame.origin();
-        [self.start.x_mean + ox, self.start.y_mean + oy]
+        self.to_world([self.start.x_mean, self.start.y_mean])
     }
 }
 

@@ -468,8 +468,7 @@ impl FoosballEnv {
     /// `seen` (the ball's `[x, y]` in the env's frame) in world coordinates, if the ball
     /// lies there on the playfield.
     fn ball_start_world(&self, seen: [f32; 2]) -> Result<[f32; 2], EnvError> {
-        let [ox, oy, _] = self.config.ball_frame.origin();
-        let [x, y] = [seen[0] + ox, seen[1] + oy];
+        let [x, y] = self.config.to_world(seen);
         let [limit_x, limit_y] = ball_centre_limits();
         if !(x.abs() <= limit_x && y.abs() <= limit_y) {
             return Err(EnvError::ResetOption {
@@ -939,10 +938,7 @@ fn serve_point(
         drill_at(drills, rng.random::<f32>())
     };
     let ([x_mean, y_mean], [x_std, y_std]) = match drill {
-        Some(d) => {
-            let [ox, oy, _] = config.ball_frame.origin();
-            ([d.x_mean + ox, d.y_mean + oy], [d.x_std, d.y_std])
-        }
+        Some(d) => (config.to_world([d.x_mean, d.y_mean]), [d.x_std, d.y_std]),
         None => (config.start_world(), [s.x_std, s.y_std]),
     };
     let [limit_x, limit_y] = ball_centre_limits();
