@@ -226,7 +226,8 @@ mod tests {
     #[test]
     fn a_drill_serves_its_share_of_the_balls_at_its_spot_in_the_ball_frame() {
         let config = FoosballConfig::default();
-        let spot = config.to_world([5.0, -52.0]);
+        let [ox, oy, _] = config.ball_frame.origin();
+        let spot = [5.0 + ox, -52.0 + oy];
         let mut drilled = env().with_drills(vec![drill(0.3, 5.0, -52.0)]);
         let mut plain = env();
         let mut at_spot = 0;
