@@ -1190,6 +1190,20 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_ball_frame_point_reaches_the_world_by_the_frame_origin() {
+        let mut c = FoosballConfig {
+            ball_frame: BallFrame::Joint,
+            ..FoosballConfig::default()
+        };
+        c.reward.goal = [1.0, 65.0];
+        assert_eq!(c.to_world([5.0, -52.0]), [5.0, -56.0]);
+        assert_eq!(c.goal_world(), [1.0, 61.0]);
+        c.ball_frame = BallFrame::World;
+        assert_eq!(c.to_world([5.0, -52.0]), [5.0, -52.0]);
+        assert_eq!(c.goal_world(), [1.0, 65.0]);
+    }
+
+    #[test]
     fn defaults_are_valid() {
         FoosballConfig::default().validate().unwrap();
     }
