@@ -226,6 +226,14 @@ pub struct SelfPlayConfig {
     pub anchor_share: f64,
     /// Fixed opponents, built-in black policies.
     pub anchors: Vec<OpponentKind>,
+    /// More fixed opponents, named as `league` names its contestants: a run directory
+    /// (`DIR[@best|@last][~sampled]`, its saved networks playing black, e.g. a trained
+    /// agent the learner draws against in the league) or a scripted player (`blocker`,
+    /// ...). Drawn like the anchors and after them: an anchor episode picks uniformly
+    /// among `anchors` and `rivals` together. Each environment plays its own copy, seeded
+    /// from the run's seed and the environment's index. Default none.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub rivals: Vec<String>,
     /// Prioritised fictitious self-play over the rest: snapshot `j` is drawn with weight
     /// `(1 - p_j)^pfsp_power`, `p_j` the learner's points share against it (a win 1, a
     /// draw 1/2, one virtual draw as prior); 0 draws uniformly.
@@ -272,6 +280,7 @@ impl Default for SelfPlayConfig {
                 OpponentKind::Scripted,
                 OpponentKind::Shooter,
             ],
+            rivals: Vec::new(),
             pfsp_power: 2.0,
             conceded_penalty: 1000.0,
             no_progress_end: false,
@@ -284,6 +293,11 @@ impl Default for SelfPlayConfig {
 }
 
 impl SelfPlayConfig {
+    /// How many fixed opponents an anchor episode picks among: `anchors` then `rivals`.
+    pub fn fixed_opponents(&self) -> usize {
+        self.anchors.len() + self.rivals.len()
+    }
+
     /// Rejects out-of-range values; keys under `self_play`.
     fn validate(&self) -> Result<(), ConfigError> {
         let err =
@@ -321,11 +335,12 @@ impl SelfPlayConfig {
                 ),
             ));
         }
-        if self.anchor_share > 0.0 && self.anchors.is_empty() {
+        if self.anchor_share > 0.0 && self.fixed_opponents() == 0 {
             return Err(err(
                 "anchors",
-                "empty, but anchor_share > 0 draws from it: name at least one (static, \
-                 random, scripted, shooter, dribbler) or set anchor_share = 0"
+                "empty, and so is self_play.rivals, but anchor_share > 0 draws from them: \
+                 name at least one (static, random, scripted, shooter, dribbler) or set \
+                 anchor_share = 0"
                     .into(),
             ));
         }

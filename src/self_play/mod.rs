@@ -4,8 +4,9 @@
 //! - Snapshots: every `snapshot_every` env steps (the first at step 0) the learner's
 //!   networks are saved as `RUN/pool/step-N/` (a `config.toml` and `last/`, so a snapshot
 //!   is a contestant of `league` and `evaluate --opponent` like any run) and join the pool.
-//! - Draw per episode ([`pool::Pool::choose`]): the newest snapshot (`latest_share`), an
-//!   anchor (`anchor_share`: built-in black policies), else a snapshot among the newest
+//! - Draw per episode ([`pool::Pool::choose`]): the newest snapshot (`latest_share`), a
+//!   fixed opponent (`anchor_share`: built-in black policies, `anchors`, and other
+//!   contestants, `rivals`: a trained run's networks, `blocker`), else a snapshot among the newest
 //!   `pool_size` by prioritised fictitious self-play, weight `(1 - p)^pfsp_power` with `p`
 //!   the learner's points share against it so far.
 //! - The learner's table: the run's own, with black's goals counted (the own-goal line is
@@ -30,7 +31,9 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use foosball_algos::Agent;
-use foosball_env::{FoosballConfig, FoosballEnv, FoosballInfo};
+use foosball_env::roster::opponent_for;
+use foosball_env::seeding::{RIVALS, derive_seed};
+use foosball_env::{FoosballConfig, FoosballEnv, FoosballInfo, Opponent};
 use serde::Serialize;
 
 use crate::config::{Checkpoint, RunConfig, SelfPlayConfig, TestActions};
@@ -63,11 +66,15 @@ pub enum SelfPlayError {
     /// The training table was refused.
     #[error("self-play table: env.{0}")]
     Env(String),
+    /// A rival is not a contestant, or cannot play on the learner's table.
+    #[error("self_play.rivals: {0}")]
+    Rival(String),
 }
 
 /// A self-play run's pool, its snapshot schedule and where it writes.
 pub struct SelfPlay {
     pool: Arc<Pool>,
+    rivals: Vec<Contestant>,
     config: RunConfig,
     table: FoosballConfig,
     dir: PathBuf,
@@ -95,7 +102,8 @@ pub fn self_play_table(env: &FoosballConfig, sp: &SelfPlayConfig) -> FoosballCon
 
 impl SelfPlay {
     /// The pool of `config`'s run in `run_dir` for `envs` environments: empty (fresh) or
-    /// as a checkpoint left it, its snapshots loaded again from `RUN/pool/`.
+    /// as a checkpoint left it, its snapshots loaded again from `RUN/pool/`. Each rival
+    /// must name a contestant.
     pub fn start(
         config: &RunConfig,
         sp: &SelfPlayConfig,
@@ -103,8 +111,14 @@ impl SelfPlay {
         envs: usize,
         checkpoint: Option<&PoolState>,
     ) -> Result<Self, SelfPlayError> {
+        let rivals = sp
+            .rivals
+            .iter()
+            .map(|name| name.parse::<Contestant>().map_err(SelfPlayError::Rival))
+            .collect::<Result<_, _>>()?;
         let mut this = Self {
             pool: Arc::new(Pool::new(sp, envs)),
+            rivals,
             config: config.clone(),
             table: self_play_table(&config.env, sp),
             dir: run_dir.join(POOL_DIR),
@@ -124,11 +138,34 @@ impl SelfPlay {
     pub fn envs(&self, n: usize) -> Result<Vec<FoosballEnv>, SelfPlayError> {
         (0..n)
             .map(|i| {
-                let black = Box::new(PoolOpponent::new(self.pool.clone(), i));
+                let black = Box::new(PoolOpponent::new(
+                    self.pool.clone(),
+                    i,
+                    self.fixed_opponents(i)?,
+                ));
                 FoosballEnv::with_opponent(self.table.clone(), black)
                     .map_err(|e| SelfPlayError::Env(e.to_string()))
             })
             .collect()
+    }
+
+    /// Environment `env`'s own copies of the anchors, then of the rivals (seeded by
+    /// [`RIVALS`] and `env`).
+    fn fixed_opponents(&self, env: usize) -> Result<Vec<Box<dyn Opponent>>, SelfPlayError> {
+        let anchors = self
+            .pool
+            .config()
+            .anchors
+            .iter()
+            .map(|&k| Ok(opponent_for(k)));
+        let seed = derive_seed(self.config.protocol.seed, RIVALS, env as u64);
+        let rivals = self.rivals.iter().map(|rival| {
+            let policy = rival
+                .policy(&self.table, seed)
+                .map_err(|why| SelfPlayError::Rival(format!("`{rival}`: {why}")))?;
+            Ok(Box::new(PolicyOpponent::new(policy, self.table.ball_frame)) as Box<dyn Opponent>)
+        });
+        anchors.chain(rivals).collect()
     }
 
     /// Takes a snapshot of `agent` if one is due at `env_steps`.

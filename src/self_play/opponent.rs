@@ -5,15 +5,15 @@ use std::sync::{Arc, Mutex, PoisonError};
 
 use foosball_env::config::ActionMap;
 use foosball_env::layout::{ACTION_DIM, OBS_DIM};
-use foosball_env::roster::opponent_for;
 use foosball_env::{EnvRng, Opponent};
 use rand::Rng;
 
 use super::pool::{Member, Pool};
 use crate::play::matches::PolicyOpponent;
 
-/// Who plays the episode in progress: this environment's own copy of an anchor (its index
-/// in the pool, which lists the anchors first), or a snapshot's shared policy.
+/// Who plays the episode in progress: this environment's own copy of a fixed opponent
+/// (its index in the pool, which lists the anchors and rivals first), or a snapshot's
+/// shared policy.
 enum Playing {
     Anchor(usize),
     Snapshot(Arc<Mutex<PolicyOpponent>>),
@@ -32,14 +32,10 @@ pub struct PoolOpponent {
 }
 
 impl PoolOpponent {
-    /// Black of environment `env` (its index in the vec-env) drawing from `pool`.
-    pub fn new(pool: Arc<Pool>, env: usize) -> Self {
-        let anchors = pool
-            .config()
-            .anchors
-            .iter()
-            .map(|&kind| opponent_for(kind))
-            .collect();
+    /// Black of environment `env` (its index in the vec-env) drawing from `pool`, with its
+    /// own copies of the pool's fixed opponents, `anchors` in the pool's order.
+    pub fn new(pool: Arc<Pool>, env: usize, anchors: Vec<Box<dyn Opponent>>) -> Self {
+        debug_assert_eq!(anchors.len(), pool.config().fixed_opponents());
         Self {
             pool,
             env,

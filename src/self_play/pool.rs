@@ -3,7 +3,6 @@
 
 use std::sync::{Arc, Mutex, PoisonError, RwLock};
 
-use foosball_env::OpponentKind;
 use foosball_nets::{Snapshot, SnapshotError};
 use serde::Serialize;
 
@@ -43,10 +42,11 @@ impl Record {
 /// Who an entry of the pool is.
 #[derive(Clone)]
 pub enum Member {
-    /// A built-in black policy; each environment plays its own copy (the anchors are the
-    /// pool's first entries, in `anchors` order, as every
-    /// [`super::opponent::PoolOpponent`] builds its copies).
-    Anchor(OpponentKind),
+    /// A fixed opponent by its name: a built-in black policy (`anchors`) or a rival
+    /// (`rivals`). Each environment plays its own copy: the fixed opponents are the pool's
+    /// first entries, `anchors` then `rivals` in their order, as
+    /// [`super::SelfPlay::envs`] hands every [`super::opponent::PoolOpponent`] its copies.
+    Anchor(String),
     /// The learner's networks at env step `step`, shared by the environments (a
     /// deterministic policy, so who calls it first changes nothing).
     Snapshot {
@@ -67,10 +67,11 @@ pub struct Entry {
 }
 
 impl Entry {
-    /// Its name: the anchor's (`static`, ...) or `step-N` for a snapshot.
+    /// Its name: the anchor's (`static`, ...), the rival's as configured, or `step-N` for
+    /// a snapshot.
     pub fn name(&self) -> String {
         match &self.member {
-            Member::Anchor(kind) => kind.name().to_string(),
+            Member::Anchor(name) => name.clone(),
             Member::Snapshot { step, .. } => snapshot_name(*step),
         }
     }
@@ -99,13 +100,13 @@ struct Slot {
 }
 
 impl Pool {
-    /// The anchors of `config`, no snapshot yet, for `envs` environments.
+    /// The anchors and rivals of `config`, no snapshot yet, for `envs` environments.
     pub fn new(config: &SelfPlayConfig, envs: usize) -> Self {
-        let entries = config
-            .anchors
-            .iter()
-            .map(|&kind| Entry {
-                member: Member::Anchor(kind),
+        let names = config.anchors.iter().map(|kind| kind.name().to_string());
+        let entries = names
+            .chain(config.rivals.iter().cloned())
+            .map(|name| Entry {
+                member: Member::Anchor(name),
                 record: Record::default(),
             })
             .collect();
@@ -149,14 +150,14 @@ impl Pool {
     }
 
     /// The opponent of an episode from two uniform draws in [0, 1): the newest snapshot
-    /// when `u < latest_share`, an anchor (picked by `v`) when `u < latest_share +
-    /// anchor_share`, else a live snapshot by prioritised fictitious self-play (picked by
+    /// when `u < latest_share`, a fixed opponent (an anchor or a rival, picked by `v`)
+    /// when `u < latest_share + anchor_share`, else a live snapshot by prioritised fictitious self-play (picked by
     /// `v` over the weights `(1 - p)^pfsp_power`). Falls back to the anchors while there
     /// is no snapshot and to the snapshots where there is no anchor.
     pub fn choose(&self, u: f64, v: f64) -> usize {
         let entries = self.entries.read().unwrap_or_else(PoisonError::into_inner);
         let live = live_snapshots(&entries);
-        let anchors = self.config.anchors.len();
+        let anchors = self.config.fixed_opponents();
         let c = &self.config;
         let pick = |n: usize| ((v * n as f64) as usize).min(n.saturating_sub(1));
         if live.is_empty()
@@ -319,6 +320,7 @@ fn live_snapshots(entries: &[Entry]) -> Vec<usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use foosball_env::OpponentKind;
 
     fn pool(config: SelfPlayConfig) -> Pool {
         Pool::new(&config, 1)
@@ -360,12 +362,15 @@ mod tests {
         let config = SelfPlayConfig {
             latest_share: 0.5,
             anchor_share: 0.2,
-            anchors: vec![OpponentKind::Static, OpponentKind::Random],
+            anchors: vec![OpponentKind::Static],
+            rivals: vec!["blocker".into()],
             pfsp_power: 2.0,
             pool_size: 3,
             ..SelfPlayConfig::default()
         };
         let p = pool(config);
+        let names: Vec<String> = p.entries().iter().map(Entry::name).collect();
+        assert_eq!(names, ["static", "blocker"], "anchors, then rivals");
         for step in [0, 10, 20, 30] {
             p.add_snapshot(step, idle());
         }
@@ -389,8 +394,8 @@ mod tests {
             counts[p.choose(u, v)] += 1;
         }
         assert_eq!(counts[2], 0, "a snapshot out of play was drawn");
-        assert_eq!(counts[0] + counts[1], n / 5, "anchors");
-        assert_eq!(counts[0], counts[1], "anchors uniform");
+        assert_eq!(counts[0] + counts[1], n / 5, "anchors and rivals");
+        assert_eq!(counts[0], counts[1], "an anchor and a rival drawn alike");
         // PFSP over the last 30 %: weights 0.05^2, 0.95^2, 0.5^2 (newest, never met).
         let w = [0.0025, 0.9025, 0.25];
         let pfsp = 0.3 * n as f64;

@@ -1,7 +1,7 @@
 //! Self-play training: the pool fills with snapshots on schedule, every training episode
-//! is recorded against the opponent it was drawn, snapshots play as contestants, a run is
-//! the same on one thread or two, and bad settings are refused by key; a run starts from
-//! saved networks (`protocol.init_from`, the way to fine-tune a trained agent by
+//! is recorded against the opponent it was drawn, snapshots play as contestants, a trained
+//! run plays black as a rival, a run is the same on one thread or two, and bad settings
+//! are refused by key; a run starts from saved networks (`protocol.init_from`, the way to fine-tune a trained agent by
 //! self-play).
 
 use crate::common;
@@ -14,7 +14,8 @@ use foosball_rl::run::train::{Start, train};
 use std::path::Path;
 
 const SELF_PLAY: &str = "[self_play]\nsnapshot_every = 100\npool_size = 2\nlatest_share = 0.4\n\
-                         anchor_share = 0.3\nanchors = [\"static\", \"random\", \"shooter\"]\n";
+                         anchor_share = 0.3\nanchors = [\"static\", \"random\", \"shooter\"]\n\
+                         rivals = [\"blocker\"]\n";
 
 fn config(threads: usize) -> RunConfig {
     let text = tiny_config_text("sac", 2, 200)
@@ -52,6 +53,7 @@ fn the_pool_takes_snapshots_and_records_every_training_episode() {
             "static",
             "random",
             "shooter",
+            "blocker",
             "step-000000000",
             "step-000000100",
             "step-000000200",
@@ -64,7 +66,10 @@ fn the_pool_takes_snapshots_and_records_every_training_episode() {
         .iter()
         .map(|r| r["in_play"].as_bool().unwrap())
         .collect();
-    assert_eq!(in_play, [true, true, true, false, false, false, true, true]);
+    assert_eq!(
+        in_play,
+        [true, true, true, true, false, false, false, true, true]
+    );
     // Every training episode was played against one of them.
     let episodes = std::fs::read_to_string(dir.join("episodes.csv"))
         .unwrap()
@@ -106,6 +111,53 @@ fn the_pool_takes_snapshots_and_records_every_training_episode() {
     let shooter: Contestant = "shooter".parse().unwrap();
     let result = play_match(&table, &rules, &snap, &shooter, 5).unwrap();
     assert!(result.steps > 0);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A rival from a run directory (here the first run's snapshot, a run like any other)
+/// plays black in the anchor episodes and gets its own record; a rival that names no
+/// contestant stops the run before it starts, naming `self_play.rivals` and the name.
+#[test]
+fn a_trained_run_plays_black_as_a_rival_and_a_bad_rival_is_refused() {
+    let dir = scratch("self-play-rival");
+    let (first, second) = (dir.join("first"), dir.join("second"));
+    std::fs::create_dir_all(&first).unwrap();
+    train(&config(1), &first, Start::Fresh, |_| {}).unwrap();
+    let rival = first.join("pool/step-000000300");
+    let with_rival = |name: &str| {
+        let text = tiny_config_text("sac", 2, 200)
+            + &format!(
+                "[self_play]\nlatest_share = 0\nanchor_share = 1\nanchors = [\"static\"]\n\
+                 rivals = [\"{name}\"]\n"
+            );
+        RunConfig::from_toml(&text, Path::new("rival.toml")).unwrap()
+    };
+    std::fs::create_dir_all(&second).unwrap();
+    train(
+        &with_rival(&format!("{}@last", rival.display())),
+        &second,
+        Start::Fresh,
+        |_| {},
+    )
+    .unwrap();
+    let records = json(&second.join("pool/pool.json"));
+    let rows = records["opponents"].as_array().unwrap();
+    assert_eq!(rows[0]["opponent"], "static");
+    assert_eq!(rows[1]["opponent"], format!("{}@last", rival.display()));
+    let games = |i: usize| rows[i]["games"].as_u64().unwrap();
+    assert!(games(0) > 0 && games(1) > 0, "{rows:?}");
+    let snapshot_games: u64 = (2..rows.len()).map(games).sum();
+    assert_eq!(snapshot_games, 0, "anchor_share = 1 draws no snapshot");
+
+    let refused = dir.join("refused");
+    std::fs::create_dir_all(&refused).unwrap();
+    let err = train(&with_rival("no/such/run"), &refused, Start::Fresh, |_| {})
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("self_play.rivals") && err.contains("no/such/run"),
+        "{err}"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -13,6 +13,7 @@
 //! | [`MATCHES`] | two-sided matches of a league: `index` = the match's number among a pair's |
 //! | [`PLANNER`] | the planner's search for episode `index` of the stream it is tested on |
 //! | [`CURRICULUM`] | which training episodes begin along a teacher's: `run_seed` is the training env's reset seed, `index` 0 |
+//! | [`RIVALS`] | a self-play run's rivals: training environment `index`'s own copies (random players, sampled actions) |
 //! | [`DAGGER`] | an interactive teacher's round `index`: `derive_seed(run_seed, DAGGER, index)` is the round's own seed, from which its episodes' starts (stream [`DAGGER`]), queried steps and searches derive |
 
 /// Stream of the training environments.
@@ -33,6 +34,8 @@ pub const PLANNER: u64 = 7;
 pub const CURRICULUM: u64 = 8;
 /// Stream of an interactive teacher's rounds (the learner's episodes it relabels).
 pub const DAGGER: u64 = 9;
+/// Stream of a self-play run's rivals (one per training environment).
+pub const RIVALS: u64 = 10;
 
 /// One SplitMix64 output step.
 fn splitmix64(mut z: u64) -> u64 {
@@ -63,6 +66,8 @@ mod tests {
             MATCHES,
             PLANNER,
             CURRICULUM,
+            DAGGER,
+            RIVALS,
         ] {
             for index in 0..1000 {
                 assert!(seen.insert(derive_seed(7, stream, index)));
