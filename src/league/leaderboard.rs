@@ -11,7 +11,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use serde::Serialize;
 
-use super::ratings::{Game, fit, intervals};
+use super::ratings::{Game, bootstrap, fit};
 use super::round_robin::LeagueDir;
 use crate::files::write_atomic;
 use crate::play::contestant::Contestant;
@@ -19,7 +19,7 @@ use crate::play::matches::{MatchRules, Tally};
 use crate::play::metrics::wilson_points;
 use crate::png::png;
 
-/// Bootstrap resamples of the rating intervals.
+/// Bootstrap resamples of the rating intervals and the first-place shares.
 pub const RESAMPLES: usize = 500;
 
 /// The window width the page's heatmap fits, pixels.
@@ -44,6 +44,8 @@ pub struct Standing {
     pub rating: f64,
     /// Its 95 % bootstrap interval.
     pub ci95: [f64; 2],
+    /// The share of the bootstrap resamples in which it is rated first, in [0, 1].
+    pub rated_first: f64,
     /// Matches played.
     pub matches: u32,
     /// Wins, draws and losses.
@@ -105,7 +107,7 @@ impl Leaderboard {
             })
             .collect();
         let ratings = fit(n, &games, anchor);
-        let ci = intervals(n, &games, anchor, RESAMPLES, league.league.seed);
+        let boot = bootstrap(n, &games, anchor, RESAMPLES, league.league.seed);
         // Each agent's matches, and each ordered pair's (row agent's side).
         let mut tallies = vec![Tally::default(); n];
         let mut pairs = vec![vec![Tally::default(); n]; n];
@@ -127,7 +129,8 @@ impl Leaderboard {
                     about: c.map_or_else(|| "?".into(), Contestant::about),
                     run: c.and_then(Contestant::run_dir).map(Path::to_path_buf),
                     rating: ratings[i],
-                    ci95: ci[i],
+                    ci95: boot.ci95[i],
+                    rated_first: boot.first[i],
                     matches: t.matches,
                     wins: t.wins,
                     draws: t.draws,
@@ -169,17 +172,18 @@ impl Leaderboard {
     /// The standings and the matrix as markdown.
     pub fn to_markdown(&self) -> String {
         let mut s = format!(
-            "| rank | agent | rating (Elo scale, {} = 1000) | 95 % CI | matches | W-D-L | goal difference | spins per minute |\n| --- | --- | --- | --- | --- | --- | --- | --- |\n",
+            "| rank | agent | rating (Elo scale, {} = 1000) | 95 % CI | rated first (resamples) | matches | W-D-L | goal difference | spins per minute |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n",
             self.anchor
         );
         for (k, st) in self.standings.iter().enumerate() {
             s += &format!(
-                "| {} | {} | {:.0} | [{:.0}, {:.0}] | {} | {}-{}-{} | {:+} | {:.2} |\n",
+                "| {} | {} | {:.0} | [{:.0}, {:.0}] | {:.0} % | {} | {}-{}-{} | {:+} | {:.2} |\n",
                 k + 1,
                 st.agent,
                 st.rating,
                 st.ci95[0],
                 st.ci95[1],
+                100.0 * st.rated_first,
                 st.matches,
                 st.wins,
                 st.draws,
@@ -296,13 +300,14 @@ impl Leaderboard {
                     None => escape(&s.short),
                 };
                 format!(
-                    "<tr><td>{}</td><td title=\"{}\">{name}<div class=\"about\">{}</div></td><td>{:.0}</td><td>{:.0} – {:.0}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:+}</td><td>{:.2}</td></tr>\n",
+                    "<tr><td>{}</td><td title=\"{}\">{name}<div class=\"about\">{}</div></td><td>{:.0}</td><td>{:.0} – {:.0}</td><td>{:.0} %</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:+}</td><td>{:.2}</td></tr>\n",
                     k + 1,
                     escape(&s.agent),
                     escape(&s.about),
                     s.rating,
                     s.ci95[0],
                     s.ci95[1],
+                    100.0 * s.rated_first,
                     s.matches,
                     s.wins,
                     s.draws,
@@ -327,9 +332,9 @@ th.sorted::after {{ content: " ▾"; }}
 </style></head>
 <body>
 <h1>foosball-rl leaderboard</h1>
-<p>Bradley–Terry ratings on the Elo scale ({anchor} pinned at 1000), 95 % bootstrap intervals over matches;
+<p>Bradley–Terry ratings on the Elo scale ({anchor} pinned at 1000), 95 % bootstrap intervals over matches and the share of those resamples in which each agent is rated first;
 {rules} Click a heading to sort.</p>
-<table id="board"><thead><tr><th>rank</th><th>agent</th><th>rating</th><th>95 % CI</th><th>matches</th><th>wins</th><th>draws</th><th>losses</th><th>goal difference</th><th>spins per minute</th></tr></thead>
+<table id="board"><thead><tr><th>rank</th><th>agent</th><th>rating</th><th>95 % CI</th><th>rated first</th><th>matches</th><th>wins</th><th>draws</th><th>losses</th><th>goal difference</th><th>spins per minute</th></tr></thead>
 <tbody>
 {rows}</tbody></table>
 <h2>Head to head</h2>

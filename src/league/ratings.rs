@@ -7,7 +7,8 @@
 //! agent that never wins (or never loses) and barely moves the others. Ratings are
 //! `400 log10(p_i / p_anchor) + 1000`: the anchor is at 1000, and 400 points mean 10:1
 //! odds, as in Elo. Intervals: the matches of every pair resampled with replacement,
-//! the fit repeated, the 2.5 and 97.5 percentiles of each rating.
+//! the fit repeated, the 2.5 and 97.5 percentiles of each rating, and the share of the
+//! resamples in which each agent is rated first (how sure the board is of its top).
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -66,15 +67,25 @@ pub fn fit(n: usize, games: &[Game], anchor: usize) -> Vec<f64> {
         .collect()
 }
 
-/// 95 % bootstrap intervals of [`fit`]'s ratings: `resamples` redraws of every pair's
-/// games with replacement (the pair's count kept), from `seed`.
-pub fn intervals(
+/// What the bootstrap of [`fit`] gives, one entry per agent.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Bootstrap {
+    /// The 95 % interval of each rating: the 2.5 and 97.5 percentiles over the resamples.
+    pub ci95: Vec<[f64; 2]>,
+    /// The share of the resamples in which each agent is rated first (the lowest index
+    /// among equals), in [0, 1]; the shares sum to 1.
+    pub first: Vec<f64>,
+}
+
+/// The bootstrap of [`fit`]'s ratings: `resamples` redraws of every pair's games with
+/// replacement (the pair's count kept), from `seed`.
+pub fn bootstrap(
     n: usize,
     games: &[Game],
     anchor: usize,
     resamples: usize,
     seed: u64,
-) -> Vec<[f64; 2]> {
+) -> Bootstrap {
     let mut groups: std::collections::BTreeMap<(usize, usize), Vec<Game>> = Default::default();
     for g in games {
         groups
@@ -84,6 +95,7 @@ pub fn intervals(
     }
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut draws: Vec<Vec<f64>> = vec![Vec::with_capacity(resamples); n];
+    let mut firsts = vec![0usize; n];
     for _ in 0..resamples {
         let sample: Vec<Game> = groups
             .values()
@@ -93,18 +105,33 @@ pub fn intervals(
                     .collect::<Vec<_>>()
             })
             .collect();
-        for (i, r) in fit(n, &sample, anchor).into_iter().enumerate() {
+        let ratings = fit(n, &sample, anchor);
+        let top = (0..n).fold(
+            0,
+            |best, i| {
+                if ratings[i] > ratings[best] { i } else { best }
+            },
+        );
+        if n > 0 {
+            firsts[top] += 1;
+        }
+        for (i, r) in ratings.into_iter().enumerate() {
             draws[i].push(r);
         }
     }
-    draws
+    let ci95 = draws
         .into_iter()
         .map(|mut d| {
             d.sort_by(f64::total_cmp);
             let at = |q: f64| d[((q * (d.len() - 1) as f64).round() as usize).min(d.len() - 1)];
             [at(0.025), at(0.975)]
         })
-        .collect()
+        .collect();
+    let first = firsts
+        .iter()
+        .map(|&k| k as f64 / resamples.max(1) as f64)
+        .collect();
+    Bootstrap { ci95, first }
 }
 
 #[cfg(test)]
@@ -135,9 +162,41 @@ mod tests {
         assert_eq!(r[0], ANCHOR_RATING);
         assert!((r[1] - 1400.0).abs() < 40.0, "{r:?}");
         assert!((r[2] - 1800.0).abs() < 80.0, "{r:?}");
-        let ci = intervals(3, &g, 0, 200, 2);
+        let b = bootstrap(3, &g, 0, 200, 2);
+        let ci = &b.ci95;
         assert!(ci[1][0] < r[1] && r[1] < ci[1][1], "{ci:?}");
         assert_eq!(ci[0], [ANCHOR_RATING, ANCHOR_RATING]);
+        // 400 Elo apart over 2,000 games: the strongest is first in every resample.
+        assert_eq!(b.first, [0.0, 0.0, 1.0]);
+    }
+
+    #[test]
+    fn two_equal_leaders_share_the_first_place_of_the_resamples() {
+        // Agents 1 and 2 with the same record: 80 of 100 against agent 0, 50 of 100
+        // against each other.
+        let mut g = vec![];
+        for k in 0..100 {
+            for leader in [1, 2] {
+                let a_points = if k < 80 { 1.0 } else { 0.0 };
+                g.push(Game {
+                    a: leader,
+                    b: 0,
+                    a_points,
+                });
+            }
+            let a_points = if k < 50 { 1.0 } else { 0.0 };
+            g.push(Game {
+                a: 1,
+                b: 2,
+                a_points,
+            });
+        }
+        let b = bootstrap(3, &g, 0, 400, 4);
+        assert_eq!(b.first[0], 0.0, "{:?}", b.first);
+        assert!((b.first.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+        for leader in [1, 2] {
+            assert!((0.35..0.65).contains(&b.first[leader]), "{:?}", b.first);
+        }
     }
 
     #[test]
