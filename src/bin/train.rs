@@ -5,6 +5,7 @@
 use clap::Parser;
 use foosball_rl::cli::finish;
 use foosball_rl::config::{Algo, Overrides, RunConfig};
+use foosball_rl::run::log::Speed;
 use foosball_rl::run::train::{Event, Progress, Start, train};
 use foosball_rl::run::{budget, interrupt};
 use indicatif::{FormattedDuration, ProgressBar, ProgressStyle};
@@ -98,11 +99,16 @@ fn run_dir(args: &Args, c: &RunConfig) -> Result<PathBuf, String> {
 }
 
 /// Shows training progress: a bar on a terminal (steps/s, updates/s, ETA, last
-/// evaluation), and a line per evaluation and checkpoint in any case.
+/// evaluation), and a line per evaluation and checkpoint in any case. The speeds shown
+/// are the last logging window's; the ETA is from the average speed since this process
+/// started training (a window of PPO's collection alone runs several times faster than
+/// the run, its updates included).
 struct Display {
     bar: ProgressBar,
     speed: String,
     eval: String,
+    window: Option<Speed>,
+    average: Option<Speed>,
 }
 
 impl Display {
@@ -116,6 +122,8 @@ impl Display {
             bar,
             speed: String::new(),
             eval: "no evaluation yet".into(),
+            window: None,
+            average: None,
         }
     }
 
@@ -131,13 +139,19 @@ impl Display {
         self.bar.set_position(p.env_steps);
         match p.event {
             Event::Window(s) | Event::Tick(s) => {
+                if matches!(p.event, Event::Window(_)) {
+                    self.window = Some(s);
+                } else {
+                    self.average = Some(s);
+                }
+                let shown = self.window.unwrap_or(s);
+                let pace = self.average.unwrap_or(s).steps_per_second.max(1e-9);
                 let left = p.total_steps.saturating_sub(p.env_steps) as f64;
-                let eta = Duration::from_secs_f64(left / s.steps_per_second.max(1e-9));
                 self.speed = format!(
                     "{:.0} steps/s {:.1} updates/s ETA {}",
-                    s.steps_per_second,
-                    s.updates_per_second,
-                    FormattedDuration(eta)
+                    shown.steps_per_second,
+                    shown.updates_per_second,
+                    FormattedDuration(Duration::from_secs_f64(left / pace))
                 );
             }
             Event::Evaluation {

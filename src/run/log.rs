@@ -34,7 +34,8 @@ pub const CSV_FILES: [&str; 3] = ["episodes.csv", "evaluations.csv", "scalars.cs
 const EPISODES_HEADER: &str = "env_step,return,length,scored,end";
 const SCALARS_HEADER: &str = "env_step,tag,value";
 
-/// Training speed over one logging window.
+/// Training speed over one logging window (or, in [`super::train::Event::Tick`], since the
+/// process started training).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Speed {
     /// Env steps per second.
