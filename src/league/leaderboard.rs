@@ -443,17 +443,25 @@ fn short_names(names: &[String], contestants: &[Option<Contestant>]) -> Vec<Stri
             .collect()
     };
     let (one, two) = (at(1), at(2));
+    let cut = |v: &[String], f: fn(&str, usize) -> String| -> Vec<String> {
+        v.iter().map(|s| f(s, SHORT_NAME_CHARS)).collect()
+    };
+    // Shortened forms, tried in order: the first that no other agent shares is taken.
+    let levels = [
+        cut(&one, shorten),
+        cut(&two, shorten),
+        cut(&two, keep_end),
+        cut(names, shorten),
+        cut(names, keep_end),
+    ];
     let unique = |v: &[String], i: usize| v.iter().filter(|s| **s == v[i]).count() == 1;
     (0..names.len())
         .map(|i| {
-            let short = if unique(&one, i) {
-                &one[i]
-            } else if unique(&two, i) {
-                &two[i]
-            } else {
-                &names[i]
-            };
-            shorten(short, SHORT_NAME_CHARS)
+            levels
+                .iter()
+                .find(|v| unique(v, i))
+                .unwrap_or(&levels[levels.len() - 1])[i]
+                .clone()
         })
         .collect()
 }
@@ -479,6 +487,17 @@ fn relative(target: &Path, base: &Path) -> String {
     let mut link: PathBuf = b[common..].iter().map(|_| "..").collect();
     link.extend(&t[common..]);
     format!("{}/", link.display())
+}
+
+/// `s` cut to `n` characters (n >= 2) at its start: `…` and its last `n - 1` (where two
+/// names cut in the middle read the same).
+fn keep_end(s: &str, n: usize) -> String {
+    let chars: Vec<char> = s.chars().collect();
+    if chars.len() <= n {
+        return s.to_string();
+    }
+    let end: String = chars[chars.len() - (n - 1)..].iter().collect();
+    format!("…{end}")
 }
 
 /// `s` cut to `n` characters (n >= 2) in its middle: the start and the end (a run's kind
@@ -557,6 +576,34 @@ mod tests {
                 .about()
                 .starts_with("scripted: Lines the man")
         );
+    }
+
+    /// Two runs whose directory names cut in the middle read the same keep their ends.
+    #[test]
+    fn names_that_cut_alike_keep_their_ends() {
+        let dir = std::env::temp_dir().join("foosball-cut-names");
+        let runs = [
+            "r/fourier-ball-128-kickstart-defence-more7/ppo-seed0",
+            "r/fourier-ball-128-kickstart-defence-mixed-from-more7/ppo-seed0",
+        ];
+        for run in runs {
+            std::fs::create_dir_all(dir.join(run)).unwrap();
+            std::fs::write(dir.join(run).join("config.toml"), "algo = \"ppo\"\n").unwrap();
+        }
+        let names: Vec<String> = runs
+            .iter()
+            .map(|r| dir.join(r).display().to_string())
+            .collect();
+        let contestants: Vec<Option<Contestant>> = names.iter().map(|a| a.parse().ok()).collect();
+        let shorts = short_names(&names, &contestants);
+        assert_eq!(
+            shorts,
+            [
+                "…ckstart-defence-more7/ppo-seed0",
+                "…ence-mixed-from-more7/ppo-seed0"
+            ]
+        );
+        assert!(shorts.iter().all(|s| s.chars().count() <= SHORT_NAME_CHARS));
     }
 
     #[test]
