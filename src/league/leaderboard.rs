@@ -537,22 +537,31 @@ mod tests {
         assert_eq!(HeatmapLayout::of(&["shooter", "zero", "random"]).cell, 64);
     }
 
+    /// Run directories `runs` under the temporary folder `scratch`, each with a
+    /// `config.toml` of algorithm `algo` only; their paths.
+    fn run_dirs(scratch: &str, runs: &[&str], algo: &str) -> Vec<String> {
+        let dir = std::env::temp_dir().join(scratch);
+        runs.iter()
+            .map(|run| {
+                std::fs::create_dir_all(dir.join(run)).unwrap();
+                let config = format!("algo = \"{algo}\"\n");
+                std::fs::write(dir.join(run).join("config.toml"), config).unwrap();
+                dir.join(run).display().to_string()
+            })
+            .collect()
+    }
+
     #[test]
     fn short_names_are_run_names_with_their_parent_where_two_would_read_the_same() {
-        let dir = std::env::temp_dir().join("foosball-short-names");
-        let runs = [
-            "a/figure2/sac-seed0",
-            "a/figure2-v3/sac-seed0",
-            "a/league/ppo-seed1",
-        ];
-        for run in runs {
-            std::fs::create_dir_all(dir.join(run)).unwrap();
-            std::fs::write(dir.join(run).join("config.toml"), "algo = \"sac\"\n").unwrap();
-        }
-        let mut names: Vec<String> = runs
-            .iter()
-            .map(|r| dir.join(r).display().to_string())
-            .collect();
+        let mut names = run_dirs(
+            "foosball-short-names",
+            &[
+                "a/figure2/sac-seed0",
+                "a/figure2-v3/sac-seed0",
+                "a/league/ppo-seed1",
+            ],
+            "sac",
+        );
         names[2] += "@best";
         names.push("shooter".into());
         names.push("no-such-agent".into());
@@ -581,19 +590,14 @@ mod tests {
     /// Two runs whose directory names cut in the middle read the same keep their ends.
     #[test]
     fn names_that_cut_alike_keep_their_ends() {
-        let dir = std::env::temp_dir().join("foosball-cut-names");
-        let runs = [
-            "r/fourier-ball-128-kickstart-defence-more7/ppo-seed0",
-            "r/fourier-ball-128-kickstart-defence-mixed-from-more7/ppo-seed0",
-        ];
-        for run in runs {
-            std::fs::create_dir_all(dir.join(run)).unwrap();
-            std::fs::write(dir.join(run).join("config.toml"), "algo = \"ppo\"\n").unwrap();
-        }
-        let names: Vec<String> = runs
-            .iter()
-            .map(|r| dir.join(r).display().to_string())
-            .collect();
+        let names = run_dirs(
+            "foosball-cut-names",
+            &[
+                "r/fourier-ball-128-kickstart-defence-more7/ppo-seed0",
+                "r/fourier-ball-128-kickstart-defence-mixed-from-more7/ppo-seed0",
+            ],
+            "ppo",
+        );
         let contestants: Vec<Option<Contestant>> = names.iter().map(|a| a.parse().ok()).collect();
         let shorts = short_names(&names, &contestants);
         assert_eq!(
