@@ -135,24 +135,34 @@ impl Display {
         }
     }
 
+    /// The last window's speeds and the ETA at the average pace (each standing in for
+    /// the other until both have been reported).
+    fn speed_line(&self, p: &Progress) -> String {
+        let (Some(shown), Some(pace)) =
+            (self.window.or(self.average), self.average.or(self.window))
+        else {
+            return String::new();
+        };
+        let left = p.total_steps.saturating_sub(p.env_steps) as f64;
+        let eta = Duration::from_secs_f64(left / pace.steps_per_second.max(1e-9));
+        format!(
+            "{:.0} steps/s {:.1} updates/s ETA {}",
+            shown.steps_per_second,
+            shown.updates_per_second,
+            FormattedDuration(eta)
+        )
+    }
+
     fn show(&mut self, p: &Progress) {
         self.bar.set_position(p.env_steps);
         match p.event {
-            Event::Window(s) | Event::Tick(s) => {
-                if matches!(p.event, Event::Window(_)) {
-                    self.window = Some(s);
-                } else {
-                    self.average = Some(s);
-                }
-                let shown = self.window.unwrap_or(s);
-                let pace = self.average.unwrap_or(s).steps_per_second.max(1e-9);
-                let left = p.total_steps.saturating_sub(p.env_steps) as f64;
-                self.speed = format!(
-                    "{:.0} steps/s {:.1} updates/s ETA {}",
-                    shown.steps_per_second,
-                    shown.updates_per_second,
-                    FormattedDuration(Duration::from_secs_f64(left / pace))
-                );
+            Event::Window(s) => {
+                self.window = Some(s);
+                self.speed = self.speed_line(p);
+            }
+            Event::Tick(s) => {
+                self.average = Some(s);
+                self.speed = self.speed_line(p);
             }
             Event::Evaluation {
                 mean_return,

@@ -6,9 +6,9 @@
 //!   is a contestant of `league` and `evaluate --opponent` like any run) and join the pool.
 //! - Draw per episode ([`pool::Pool::choose`]): the newest snapshot (`latest_share`), a
 //!   fixed opponent (`anchor_share`: built-in black policies, `anchors`, and other
-//!   contestants, `rivals`: a trained run's networks, `blocker`), else a snapshot among the newest
-//!   `pool_size` by prioritised fictitious self-play, weight `(1 - p)^pfsp_power` with `p`
-//!   the learner's points share against it so far.
+//!   contestants, `rivals`: a trained run's networks, `blocker`), else a snapshot among
+//!   the newest `pool_size` by prioritised fictitious self-play, weight
+//!   `(1 - p)^pfsp_power` with `p` the learner's points share against it so far.
 //! - The learner's table: the run's own, with black's goals counted (the own-goal line is
 //!   black's goal line mirrored, as in matches), `conceded_penalty` lost per step while
 //!   the ball lies in yellow's goal, and no "no progress" end unless `no_progress_end`

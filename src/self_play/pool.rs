@@ -151,19 +151,20 @@ impl Pool {
 
     /// The opponent of an episode from two uniform draws in [0, 1): the newest snapshot
     /// when `u < latest_share`, a fixed opponent (an anchor or a rival, picked by `v`)
-    /// when `u < latest_share + anchor_share`, else a live snapshot by prioritised fictitious self-play (picked by
-    /// `v` over the weights `(1 - p)^pfsp_power`). Falls back to the anchors while there
-    /// is no snapshot and to the snapshots where there is no anchor.
+    /// when `u < latest_share + anchor_share`, else a live snapshot by prioritised
+    /// fictitious self-play (picked by `v` over the weights `(1 - p)^pfsp_power`). Falls
+    /// back to the fixed opponents while there is no snapshot and to the snapshots where
+    /// there is no fixed opponent.
     pub fn choose(&self, u: f64, v: f64) -> usize {
         let entries = self.entries.read().unwrap_or_else(PoisonError::into_inner);
         let live = live_snapshots(&entries);
-        let anchors = self.config.fixed_opponents();
+        let fixed = self.config.fixed_opponents();
         let c = &self.config;
         let pick = |n: usize| ((v * n as f64) as usize).min(n.saturating_sub(1));
         if live.is_empty()
-            || (anchors > 0 && (c.latest_share..c.latest_share + c.anchor_share).contains(&u))
+            || (fixed > 0 && (c.latest_share..c.latest_share + c.anchor_share).contains(&u))
         {
-            return pick(anchors);
+            return pick(fixed);
         }
         if u < c.latest_share {
             return live[live.len() - 1];

@@ -1,8 +1,8 @@
 //! Self-play training: the pool fills with snapshots on schedule, every training episode
 //! is recorded against the opponent it was drawn, snapshots play as contestants, a trained
 //! run plays black as a rival, a run is the same on one thread or two, and bad settings
-//! are refused by key; a run starts from saved networks (`protocol.init_from`, the way to fine-tune a trained agent by
-//! self-play).
+//! are refused by key; a run starts from saved networks (`protocol.init_from`, the way to
+//! fine-tune a trained agent by self-play).
 
 use crate::common;
 
