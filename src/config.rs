@@ -6,6 +6,7 @@ use crate::plan::PlannerConfig;
 use foosball_algos::{
     FourierConfig, NetConfig, NormalizeConfig, OffPolicyConfig, PpoConfig, SacConfig, Td3Config,
 };
+use foosball_env::config_file::{self, ExtendsError, Layers};
 use foosball_env::starts::validate_drills;
 use foosball_env::{ConfigError, Drill, FoosballConfig, ObservationKind, OpponentKind, Serve};
 use foosball_nets::Backend;
@@ -817,6 +818,10 @@ pub enum ConfigFileError {
         /// What is wrong.
         message: String,
     },
+    /// A file it extends is missing or unreadable, or the files extend each other in a
+    /// cycle.
+    #[error(transparent)]
+    Extends(#[from] ExtendsError),
 }
 
 impl RunConfig {
@@ -883,8 +888,56 @@ impl RunConfig {
         Self::load(&path)
     }
 
-    /// Parses and checks TOML `text`; `path` names it in errors.
+    /// Parses and checks TOML `text`; `path` names it in errors. A top-level `extends =
+    /// "base.toml"` (relative to `path`'s folder) lays the text over that file
+    /// ([`foosball_env::config_file`]); an error then names the file of the chain that
+    /// writes the key at fault.
     pub fn from_toml(text: &str, path: &Path) -> Result<Self, ConfigFileError> {
+        match config_file::layers(text, path)? {
+            None => Self::from_one_file(text, path),
+            Some(layers) => Self::from_layers(&layers),
+        }
+    }
+
+    /// A chain of files merged; errors name the file that writes the key at fault and
+    /// its line there.
+    fn from_layers(layers: &Layers) -> Result<Self, ConfigFileError> {
+        let merged = toml::to_string(&layers.merged).expect("a parsed table serialises");
+        let place = |key: &str| {
+            let layer = layers.writer_of(key);
+            (layer.path.clone(), line_of_key(&layer.text, key))
+        };
+        Self::from_one_file(&merged, &layers.files[0].path).map_err(|e| match e {
+            ConfigFileError::Parse {
+                line, key, message, ..
+            } => {
+                let key = key.or_else(|| key_on_line(&merged, line));
+                let (path, line) = match &key {
+                    Some(k) => place(k),
+                    None => (layers.files[0].path.clone(), None),
+                };
+                ConfigFileError::Parse {
+                    path,
+                    line: line.unwrap_or(1),
+                    key,
+                    message,
+                }
+            }
+            ConfigFileError::Invalid { key, message, .. } => {
+                let (path, line) = place(&key);
+                ConfigFileError::Invalid {
+                    path,
+                    line,
+                    key,
+                    message,
+                }
+            }
+            other => other,
+        })
+    }
+
+    /// One file's text, without `extends`.
+    fn from_one_file(text: &str, path: &Path) -> Result<Self, ConfigFileError> {
         let text = &*migrate_legacy_keys(text);
         let file: RunConfigFile = toml::from_str(text).map_err(|e| {
             let line = e.span().map_or(1, |s| line_at(text, s.start));

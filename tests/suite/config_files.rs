@@ -243,3 +243,202 @@ fn auto_puts_small_vector_networks_on_the_host_path() {
         }
     }
 }
+
+/// Writes `files` (name, text) into a scratch folder named after `test`.
+fn chain(test: &str, files: &[(&str, &str)]) -> crate::common::Scratch {
+    let dir = crate::common::scratch(test);
+    for (name, text) in files {
+        let path = dir.join(name);
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(path, text).unwrap();
+    }
+    dir
+}
+
+/// `extends`: the file's keys over its base's, tables merged, the base's own base first;
+/// the path is relative to the extending file, and the run saves the merged config.
+#[test]
+fn a_config_extends_its_base_keys_override_and_tables_merge() {
+    let dir = chain(
+        "extends-merge",
+        &[
+            (
+                "root.toml",
+                "algo = \"ppo\"\n[protocol]\nepochs = 3\nenvs = 2\n[ppo]\nn_epochs = 4\n\
+                 [ppo.net]\nhidden = [32, 32]\n[[drills]]\nshare = 0.5\nx_mean = 1.0\nx_std = 0.0\ny_mean = 0.0\ny_std = 0.0\n",
+            ),
+            (
+                "study/mid.toml",
+                "extends = \"../root.toml\"\n[ppo.net]\nhidden = [128, 128]\n[normalize]\n",
+            ),
+            (
+                "study/leaf.toml",
+                "extends = \"mid.toml\"\n[protocol]\nepochs = 5\n[ppo]\nbatch_size = 128\n",
+            ),
+        ],
+    );
+    let c = RunConfig::load(&dir.join("study/leaf.toml")).unwrap();
+    let AlgoConfig::Ppo(ppo) = &c.algorithm else {
+        panic!("not PPO")
+    };
+    // Overridden by the leaf, kept from the root, merged into [ppo] and [ppo.net].
+    assert_eq!((c.protocol.epochs, c.protocol.envs), (5, 2));
+    assert_eq!((ppo.n_epochs, ppo.batch_size), (4, 128));
+    assert_eq!(c.hidden(), &[128, 128]);
+    assert!(c.normalize.is_some());
+    assert_eq!(c.drills.len(), 1);
+    // The same configuration written out whole reads back equal: what a run saves.
+    let again = RunConfig::from_toml(&c.to_toml(), Path::new("saved.toml")).unwrap();
+    assert_eq!(again, c);
+    assert!(!c.to_toml().contains("extends"));
+}
+
+#[test]
+fn a_missing_base_is_refused_naming_the_file_that_names_it() {
+    let dir = chain(
+        "extends-missing",
+        &[("a.toml", "extends = \"nowhere.toml\"\nalgo = \"sac\"\n")],
+    );
+    let e = RunConfig::load(&dir.join("a.toml"))
+        .unwrap_err()
+        .to_string();
+    let a = dir.join("a.toml");
+    assert!(
+        e.starts_with(&format!(
+            "{}: extends = \"nowhere.toml\": cannot read {}",
+            a.display(),
+            dir.join("nowhere.toml").display()
+        )),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_cycle_of_extends_is_refused_naming_the_chain() {
+    let dir = chain(
+        "extends-cycle",
+        &[
+            ("a.toml", "extends = \"b.toml\"\nalgo = \"sac\"\n"),
+            ("b.toml", "extends = \"c.toml\"\n"),
+            ("c.toml", "extends = \"b.toml\"\n"),
+            ("self.toml", "extends = \"self.toml\"\nalgo = \"sac\"\n"),
+        ],
+    );
+    let (a, b, c) = (dir.join("a.toml"), dir.join("b.toml"), dir.join("c.toml"));
+    let e = RunConfig::load(&a).unwrap_err().to_string();
+    let cycle = format!("{} -> {} -> {}", b.display(), c.display(), b.display());
+    assert_eq!(
+        e,
+        format!("{}: extends makes a cycle: {cycle}", b.display())
+    );
+    let e = RunConfig::load(&dir.join("self.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("extends makes a cycle"), "{e}");
+}
+
+/// A bad key or value names the file of the chain that writes it and its line there.
+#[test]
+fn an_error_in_a_chain_names_the_file_that_writes_the_key() {
+    let dir = chain(
+        "extends-errors",
+        &[
+            (
+                "base.toml",
+                "algo = \"sac\"\n\n[sac.off_policy]\ntau = 2.0\n",
+            ),
+            (
+                "leaf.toml",
+                "extends = \"base.toml\"\n[protocol]\nepochs = 2\n",
+            ),
+            (
+                "fixed.toml",
+                "extends = \"base.toml\"\n[sac.off_policy]\ntau = 0.5\n",
+            ),
+            (
+                "bad.toml",
+                "extends = \"fixed.toml\"\n[protocol]\n\nepochs = 0\n",
+            ),
+            (
+                "unknown.toml",
+                "algo = \"sac\"\n[sac.net]\n\nhiden = [64]\n",
+            ),
+            (
+                "typo.toml",
+                "extends = \"unknown.toml\"\n[protocol]\nepochs = 2\n",
+            ),
+            ("broken.toml", "extends = \"fixed.toml\"\n[protocol\n"),
+            ("number.toml", "extends = 3\nalgo = \"sac\"\n"),
+            (
+                "drill.toml",
+                "algo = \"sac\"\n[[drills]]\nshare = 0.5\nspread = 1.0\n",
+            ),
+            ("drill_leaf.toml", "extends = \"drill.toml\"\n"),
+        ],
+    );
+    let load = |name: &str| RunConfig::load(&dir.join(name)).map(|_| ());
+    let shown = |name: &str| dir.join(name).display().to_string();
+    // The base's bad value, reached from a file that does not override it.
+    let e = load("leaf.toml").unwrap_err().to_string();
+    assert_eq!(
+        e,
+        format!(
+            "{}:4: sac.off_policy.tau: must be in (0, 1]",
+            shown("base.toml")
+        )
+    );
+    // Overridden further down the chain: fine; the leaf's own bad value names the leaf.
+    load("fixed.toml").unwrap();
+    let e = load("bad.toml").unwrap_err().to_string();
+    assert_eq!(
+        e,
+        format!("{}:4: protocol.epochs: must be positive", shown("bad.toml"))
+    );
+    let e = RunConfig::load(&dir.join("typo.toml")).unwrap_err();
+    assert!(matches!(e, ConfigFileError::Parse { .. }), "{e}");
+    let e = e.to_string();
+    assert!(
+        e.starts_with(&format!("{}:4: sac.net.hiden: ", shown("unknown.toml"))),
+        "{e}"
+    );
+    // A file that is not TOML says so with its own line, as without `extends`.
+    let e = load("broken.toml").unwrap_err().to_string();
+    assert!(e.starts_with(&format!("{}:2", shown("broken.toml"))), "{e}");
+    let e = load("number.toml").unwrap_err().to_string();
+    assert!(e.contains("extends: must be a string"), "{e}");
+    // A key of an array of tables (`[[drills]]`) is found in the file that writes it.
+    let e = load("drill_leaf.toml").unwrap_err().to_string();
+    assert!(
+        e.starts_with(&format!("{}:", shown("drill.toml"))) && e.contains("drills.spread"),
+        "{e}"
+    );
+}
+
+/// The study's configs are bases plus their differences: three in four extend another
+/// file; the paper's three are the roots.
+#[test]
+fn the_shipped_configs_are_written_as_bases_and_differences() {
+    let files = crate::common::files_under(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("configs"),
+        "toml",
+        &[],
+    );
+    let extending = files
+        .iter()
+        .filter(|f| {
+            std::fs::read_to_string(f)
+                .unwrap()
+                .lines()
+                .any(|l| l.starts_with("extends = "))
+        })
+        .count();
+    assert!(
+        extending * 4 >= files.len() * 3,
+        "{extending} of {} configs extend a base",
+        files.len()
+    );
+    for algo in [Algo::Ppo, Algo::Sac, Algo::Td3] {
+        let text = std::fs::read_to_string(config_path(algo)).unwrap();
+        assert!(!text.contains("extends"), "configs/{algo}.toml is a root");
+    }
+}

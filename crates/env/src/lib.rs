@@ -17,7 +17,8 @@
 //!   reference man's distance field (its plugin's own octree, or sampled) and MuJoCo's
 //!   contact search on it; [`servo`]: the rods' position
 //!   servos.
-//! - [`config`]: the table's settings and presets, refused by key ([`config_error`]).
+//! - [`config`]: the table's settings and presets, refused by key ([`config_error`]);
+//!   [`config_file`]: a TOML file and the files it `extends`, merged.
 //! - [`geometry`] and [`layout`]: the table's numbers and the observation/action index
 //!   table; [`seeding`]: how every random stream derives from one run seed.
 //!
@@ -26,6 +27,7 @@
 pub mod block;
 pub mod config;
 pub mod config_error;
+pub mod config_file;
 pub mod env;
 pub mod foosball;
 pub mod geometry;

@@ -10,6 +10,7 @@ use std::path::Path;
 
 use foosball_env::FoosballConfig;
 use foosball_env::config::overlay;
+use foosball_env::config_file;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use serde::Deserialize;
@@ -48,14 +49,20 @@ pub fn resolve(
     Ok(config)
 }
 
-/// The env keys of a TOML file: its `[env]` section, or the whole file when it has none.
+/// The env keys of a TOML file (merged with the files it `extends`): its `[env]` section,
+/// or the whole file when it has none.
 fn read_env_table(path: &Path) -> PyResult<Table> {
     let shown = path.display();
     let text = std::fs::read_to_string(path)
         .map_err(|e| ConfigError::new_err(format!("cannot read config file {shown}: {e}")))?;
-    let mut table: Table = text
-        .parse()
-        .map_err(|e| ConfigError::new_err(format!("config file {shown}: {e}")))?;
+    let layers =
+        config_file::layers(&text, path).map_err(|e| ConfigError::new_err(e.to_string()))?;
+    let mut table: Table = match layers {
+        Some(layers) => layers.merged,
+        None => text
+            .parse()
+            .map_err(|e| ConfigError::new_err(format!("config file {shown}: {e}")))?,
+    };
     match table.remove("env") {
         Some(Value::Table(env)) => Ok(env),
         Some(_) => Err(ConfigError::new_err(format!(

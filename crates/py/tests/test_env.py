@@ -109,6 +109,15 @@ def test_config_layers_preset_file_overrides(tmp_path):
     assert FoosballEnv(config=bare).config_toml == toml
 
 
+def test_a_config_file_that_extends_another_gives_the_merged_env(tmp_path):
+    (tmp_path / "base.toml").write_text('algo = "sac"\n[env]\npreset = "paper"\nframe_skip = 3\n')
+    study = tmp_path / "study"
+    study.mkdir()
+    (study / "run.toml").write_text('extends = "../base.toml"\n[env.reward]\nbeta = 10.0\n')
+    toml = FoosballEnv(config=study / "run.toml").config_toml
+    assert 'preset = "paper"' in toml and "frame_skip = 3" in toml and "beta = 10.0" in toml
+
+
 def test_reset_places_the_ball_and_a_probe_runs_past_the_end_rules():
     env = FoosballEnv(rules={"end_episodes": False})
     obs, _ = env.reset(seed=3, options={"ball": (5.0, 40.0)})

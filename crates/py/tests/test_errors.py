@@ -35,6 +35,11 @@ def test_a_bad_file_is_named(tmp_path):
     bad.write_text("[env\n")
     with pytest.raises(ConfigError, match="bad.toml"):
         FoosballEnv(config=bad)
+    # A base that is missing is named with the file that names it.
+    orphan = tmp_path / "orphan.toml"
+    orphan.write_text('extends = "gone.toml"\n')
+    with pytest.raises(ConfigError, match=r"orphan.toml: extends = \"gone.toml\": cannot read"):
+        FoosballEnv(config=orphan)
 
 
 def test_a_refused_action_leaves_the_table_as_it_was():
