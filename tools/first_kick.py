@@ -1,4 +1,4 @@
-"""How a player's first kick goes (docs/study.md, "The kick the learners brake"): the
+"""How a player's first kick goes (docs/journal/study.md, "The kick the learners brake"): the
 midfield rod's actions over an episode's first steps, the rod's angle and angular velocity
 and the ball's velocity after them, then per band of the ball's start x the score rate and
 the ball's velocity five steps after the kick. Reads `trajectories.bin` files (a run's

@@ -1,6 +1,6 @@
 """How much recorded episodes agree with each other, and how far one of them carries.
 
-A measuring instrument for docs/study.md (demonstrations from the planner), never needed
+A measuring instrument for docs/journal/study.md (demonstrations from the planner), never needed
 to build or test. Reads a `trajectories.bin` (src/play/trajectories.rs) and prints:
 
 - the spread of the starts (standard deviation of every state value at step 0 that varies);

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""How each PPO run's updates behaved, from its scalars.csv (docs/study.md, "Normalised
+"""How each PPO run's updates behaved, from its scalars.csv (docs/journal/study.md, "Normalised
 observations and rewards"): the median approximate KL and clipped share per update, the
 policy's entropy at the first and last update, and the median gradient norm before
 clipping. Standard library only.

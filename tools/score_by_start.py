@@ -1,5 +1,5 @@
 """Where a run's test episodes score: the score rate by the ball's start across the table
-(x, world cm), and how much several runs' scoring starts overlap (docs/study.md, "Where
+(x, world cm), and how much several runs' scoring starts overlap (docs/journal/study.md, "Where
 the learner scores"). Reads the test's `trajectories.bin` (kept on the machine that ran
 the test, not committed); numpy only.
 

@@ -51,3 +51,12 @@ fn a_run_of_the_codes_game_replays_byte_for_byte() {
 fn a_run_on_normalised_observations_replays_byte_for_byte() {
     replays("results/ppo-normalize/ppo-seed4");
 }
+
+/// Today's game (the sixth `reference`): the headline row's first seed (the README's
+/// reproduce command) replays, Fourier features and normalisation included.
+#[test]
+fn the_headline_run_replays_byte_for_byte() {
+    replays(
+        "results/ppo-study-v6/goal-bonus-10x-linear-actions-target-kl-fourier-ball-128/ppo-seed0",
+    );
+}

@@ -855,7 +855,7 @@ fn mirrored_play(x: f32, steps: usize) -> (Vec<f32>, f32) {
     };
     left.reset_with(Some(1), &at(-x), &mut a).unwrap();
     right.reset_with(Some(1), &at(x), &mut b).unwrap();
-    // The planner's first kick (docs/study.md): midfield slide -0.66, turn +0.86.
+    // The planner's first kick (docs/journal/study.md): midfield slide -0.66, turn +0.86.
     let mut action = NEUTRAL;
     action[4] = -0.66;
     action[5] = 0.86;
@@ -884,7 +884,7 @@ fn mirrored_play(x: f32, steps: usize) -> (Vec<f32>, f32) {
 /// The table mirrors itself in its long axis until a man touches the ball: out of the
 /// men's reach the two episodes stay exact mirror images, rods and ball; once the midfield
 /// man strikes the ball they part (the men's contact is not symmetric), which is why no
-/// learner is trained on reflected transitions (docs/study.md, "More options on the
+/// learner is trained on reflected transitions (docs/journal/study.md, "More options on the
 /// normalised learners").
 #[test]
 fn the_table_mirrors_itself_until_a_man_touches_the_ball() {

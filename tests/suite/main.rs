@@ -18,6 +18,7 @@ mod config_files;
 mod curriculum;
 mod dagger;
 mod demonstrations;
+mod docs_links;
 mod drills;
 mod evaluation;
 mod foosball_env;
