@@ -3,7 +3,7 @@
 //! instead of an allocator abort), and its wall time, from a few env steps and gradient
 //! steps timed on a throwaway copy of the learner (a few seconds at most).
 
-use super::train::TrainError;
+use super::error::TrainError;
 use crate::agents::{build_agent, device};
 use crate::config::{Algo, AlgoConfig, RunConfig};
 use foosball_algos::plane_store::PlaneStore;

@@ -9,9 +9,6 @@
 //! checkpoint (see [`crate::run::train`]), so no physics state needs saving.
 
 use crate::files::RunFileError;
-use crate::run::curriculum::CurriculumState;
-use crate::run::dagger::DaggerState;
-use crate::self_play::pool::PoolState;
 use foosball_algos::{Agent, AgentError};
 use foosball_nets::{Snapshot, SnapshotError};
 use std::path::{Path, PathBuf};
@@ -37,12 +34,6 @@ pub struct LoopState {
     /// Bytes of each append-only log file (in [`crate::run::log::CSV_FILES`] order) at the
     /// checkpoint; a resumed run cuts them back to these lengths.
     pub log_bytes: Vec<u64>,
-    /// A self-play run's pool (snapshot steps, records); `None` without self-play.
-    pub self_play: Option<PoolState>,
-    /// An interactive teacher's rounds and labels; `None` without `[dagger]`.
-    pub dagger: Option<DaggerState>,
-    /// A curriculum's distance and window under `schedule = "success"`; `None` otherwise.
-    pub curriculum: Option<CurriculumState>,
 }
 
 impl LoopState {
@@ -52,15 +43,6 @@ impl LoopState {
         snap.put_u64("loop.next_log", self.next_log);
         snap.put_f64("loop.best", self.best);
         snap.put_u64s("loop.log_bytes", self.log_bytes.clone());
-        if let Some(pool) = &self.self_play {
-            pool.save(snap);
-        }
-        if let Some(dagger) = &self.dagger {
-            dagger.save(snap);
-        }
-        if let Some(curriculum) = &self.curriculum {
-            curriculum.save(snap);
-        }
     }
 
     fn load(snap: &Snapshot<'_>) -> Result<Self, SnapshotError> {
@@ -70,9 +52,6 @@ impl LoopState {
             next_log: snap.u64("loop.next_log")?,
             best: snap.f64("loop.best")?,
             log_bytes: snap.u64s("loop.log_bytes")?.to_vec(),
-            self_play: PoolState::load(snap)?,
-            dagger: DaggerState::load(snap)?,
-            curriculum: CurriculumState::load(snap)?,
         })
     }
 }
@@ -96,8 +75,14 @@ pub enum CheckpointError {
     },
 }
 
-/// Writes `agent` and `state` as `run_dir`'s checkpoint, replacing the previous one.
-pub fn write(run_dir: &Path, agent: &dyn Agent, state: &LoopState) -> Result<(), CheckpointError> {
+/// Writes `agent`, `state` and what `hooks` add (the run's hooks' states) as `run_dir`'s
+/// checkpoint, replacing the previous one.
+pub fn write(
+    run_dir: &Path,
+    agent: &dyn Agent,
+    state: &LoopState,
+    hooks: impl FnOnce(&mut Snapshot<'_>),
+) -> Result<(), CheckpointError> {
     let tmp = run_dir.join("checkpoint.tmp");
     let dst = run_dir.join("checkpoint");
     let old = run_dir.join("checkpoint.old");
@@ -107,6 +92,7 @@ pub fn write(run_dir: &Path, agent: &dyn Agent, state: &LoopState) -> Result<(),
     let mut snap = Snapshot::new();
     agent.save_state(&mut snap);
     state.save(&mut snap);
+    hooks(&mut snap);
     snap.write(&tmp.join(STATE_FILE))
         .map_err(|source| CheckpointError::State {
             path: tmp.clone(),
@@ -142,8 +128,12 @@ pub fn epochs(dir: &Path) -> Option<u64> {
         .ok()
 }
 
-/// Restores `agent` from the checkpoint in `dir` and returns the loop's state.
-pub fn load(dir: &Path, agent: &mut dyn Agent) -> Result<LoopState, CheckpointError> {
+/// Restores `agent` from the checkpoint in `dir` and returns the loop's state with the
+/// whole state file, from which the run's hooks read theirs.
+pub fn load(
+    dir: &Path,
+    agent: &mut dyn Agent,
+) -> Result<(LoopState, Snapshot<'static>), CheckpointError> {
     let state_error = |source| CheckpointError::State {
         path: dir.to_path_buf(),
         source,
@@ -151,7 +141,8 @@ pub fn load(dir: &Path, agent: &mut dyn Agent) -> Result<LoopState, CheckpointEr
     agent.load(dir)?;
     let snap = Snapshot::read(&dir.join(STATE_FILE)).map_err(state_error)?;
     agent.load_state(&snap).map_err(state_error)?;
-    LoopState::load(&snap).map_err(state_error)
+    let state = LoopState::load(&snap).map_err(state_error)?;
+    Ok((state, snap))
 }
 
 /// Removes `dir` and what it holds, if it exists.

@@ -1,7 +1,7 @@
 //! The training logs of a run: CSV files, and TensorBoard event files holding the same
 //! scalars.
 //!
-//! Every [`crate::run::train::LOG_EVERY`] env steps (and at each epoch end) one window of
+//! Every [`crate::run::protocol::LOG_EVERY`] env steps (and at each epoch end) one window of
 //! training is summarised under these tags, in `scalars.csv` (`env_step,tag,value`) and
 //! in `RUN/tensorboard/`:
 //!
@@ -34,7 +34,7 @@ pub const CSV_FILES: [&str; 3] = ["episodes.csv", "evaluations.csv", "scalars.cs
 const EPISODES_HEADER: &str = "env_step,return,length,scored,end";
 const SCALARS_HEADER: &str = "env_step,tag,value";
 
-/// Training speed over one logging window (or, in [`super::train::Event::Tick`], since the
+/// Training speed over one logging window (or, in [`super::progress::Event::Tick`], since the
 /// process started training).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Speed {

@@ -22,7 +22,11 @@
 //! RUN/test/trajectories.bin  every test episode's steps ([`crate::play::trajectories`])
 //! ```
 //!
-//! - [`train`]: the training loop, its events and its error;
+//! - [`train`]: a run: the protocol composed with what its configuration adds;
+//! - [`protocol`]: the protocol's loop for any agent on the table (evaluations, best
+//!   and last networks, checkpoints, the test); [`hooks`]: what a run adds to it, in
+//!   the manner of SB3's callbacks; [`progress`]: the events it reports; [`error`]: why
+//!   a run stopped;
 //! - [`checkpoint`]: resumable checkpoints at epoch ends;
 //! - [`init`]: networks to start from (`protocol.init_from`, fine-tuning);
 //! - [`demonstrations`]: episodes to learn from beside the agent's own
@@ -41,9 +45,13 @@ pub mod checkpoint;
 pub mod curriculum;
 pub mod dagger;
 pub mod demonstrations;
+pub mod error;
+pub mod hooks;
 pub mod init;
 pub mod interrupt;
 pub mod kickstart;
 pub mod lock;
 pub mod log;
+pub mod progress;
+pub mod protocol;
 pub mod train;
