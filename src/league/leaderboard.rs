@@ -467,21 +467,20 @@ fn short_names(names: &[String], contestants: &[Option<Contestant>]) -> Vec<Stri
 }
 
 /// `target` as a link from a page in `base`: `..` for each of `base`'s components past
-/// their common start (a relative path taken from the working directory where the other
-/// is absolute).
+/// their common start, both taken as the real paths they name where they exist (links
+/// resolved), else from the working directory, so a page links within the tree it sits
+/// in however the two were named.
 fn relative(target: &Path, base: &Path) -> String {
     fn parts(p: &Path) -> Vec<Component<'_>> {
         p.components().filter(|c| *c != Component::CurDir).collect()
     }
-    let absolute = |p: &Path| match std::env::current_dir() {
-        Ok(cwd) if !p.is_absolute() => cwd.join(p),
-        _ => p.to_path_buf(),
+    let absolute = |p: &Path| {
+        p.canonicalize().unwrap_or_else(|_| match std::env::current_dir() {
+            Ok(cwd) if !p.is_absolute() => cwd.join(p),
+            _ => p.to_path_buf(),
+        })
     };
-    let (target, base) = if target.is_absolute() == base.is_absolute() {
-        (target.to_path_buf(), base.to_path_buf())
-    } else {
-        (absolute(target), absolute(base))
-    };
+    let (target, base) = (absolute(target), absolute(base));
     let (t, b) = (parts(&target), parts(&base));
     let common = t.iter().zip(&b).take_while(|(x, y)| x == y).count();
     let mut link: PathBuf = b[common..].iter().map(|_| "..").collect();
@@ -626,6 +625,13 @@ mod tests {
             relative(Path::new("runs/x"), &cwd.join("out")),
             "../runs/x/"
         );
+        // Existing folders named both ways (absolute, relative, through `..`) link alike.
+        let (run, page) = (Path::new("results/figure2"), Path::new("results/league"));
+        let expected = "../figure2/";
+        assert_eq!(relative(run, page), expected);
+        assert_eq!(relative(&cwd.join(run), page), expected);
+        assert_eq!(relative(run, &cwd.join(page)), expected);
+        assert_eq!(relative(&cwd.join("docs/../results/figure2"), page), expected);
     }
 
     #[test]

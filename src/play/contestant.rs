@@ -141,7 +141,11 @@ impl Contestant {
                 actions,
             } => match RunConfig::load_run(dir) {
                 Ok(c) => {
-                    let steps = c.protocol.epochs as u64 * c.protocol.steps_per_epoch;
+                    let own = c.protocol.total_env_steps();
+                    let steps = match steps_in_all(&c) {
+                        all if all > own => format!("{all} env steps ({own} in its last stage)"),
+                        _ => format!("{own} env steps"),
+                    };
                     let against = match &c.self_play {
                         Some(_) => "in self-play against its own snapshots".to_string(),
                         None => format!("against black {}", c.env.opponent.name()),
@@ -151,7 +155,7 @@ impl Contestant {
                         TestActions::Deterministic => "",
                     };
                     format!(
-                        "{} {} networks trained {steps} env steps on {} {against}; its {} \
+                        "{} {} networks trained {steps} on {} {against}; its {} \
                          networks{sampled}",
                         c.algo(),
                         c.hidden_label(),
@@ -280,6 +284,25 @@ impl Contestant {
             }
         }
     }
+}
+
+/// Env steps a run's networks trained in all: its own protocol's and those of the runs
+/// it started from (`protocol.init_from`, followed back while their directories hold a
+/// run; at most 64 stages, so a cycle ends).
+fn steps_in_all(config: &RunConfig) -> u64 {
+    let mut steps = config.protocol.total_env_steps();
+    let mut from = config.protocol.init_from.clone();
+    for _ in 0..64 {
+        let Some(Ok(Contestant::Run { dir, .. })) = from.as_deref().map(str::parse) else {
+            break;
+        };
+        let Ok(earlier) = RunConfig::load_run(&dir) else {
+            break;
+        };
+        steps += earlier.protocol.total_env_steps();
+        from = earlier.protocol.init_from;
+    }
+    steps
 }
 
 /// The names of rods by index ([`RODS`]' names, `?` for none), joined by `sep`.

@@ -143,3 +143,27 @@ fn bad_leagues_are_refused_by_name() {
     let e = LeagueDir::open(&dir, other).err().unwrap();
     assert!(e.contains("`seed`"), "{e}");
 }
+
+/// A run that started from another's networks counts the whole chain's env steps:
+/// `more7` trained 3 M env steps itself, 22.5 M from the paper's starts on.
+#[test]
+fn a_runs_about_line_counts_the_stages_it_started_from() {
+    let more7: foosball_rl::play::contestant::Contestant =
+        "results/against-shooter/fourier-ball-128-kickstart-defence-more7/ppo-seed0"
+            .parse()
+            .unwrap();
+    let about = more7.about();
+    assert!(
+        about.starts_with(
+            "ppo 128x128 networks trained 22500000 env steps (3000000 in its last stage)"
+        ),
+        "{about}"
+    );
+    let first: foosball_rl::play::contestant::Contestant =
+        "results/figure2-v6/ppo-seed2".parse().unwrap();
+    assert!(
+        first.about().contains("trained 1500000 env steps on"),
+        "{}",
+        first.about()
+    );
+}
