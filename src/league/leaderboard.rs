@@ -475,10 +475,11 @@ fn relative(target: &Path, base: &Path) -> String {
         p.components().filter(|c| *c != Component::CurDir).collect()
     }
     let absolute = |p: &Path| {
-        p.canonicalize().unwrap_or_else(|_| match std::env::current_dir() {
-            Ok(cwd) if !p.is_absolute() => cwd.join(p),
-            _ => p.to_path_buf(),
-        })
+        p.canonicalize()
+            .unwrap_or_else(|_| match std::env::current_dir() {
+                Ok(cwd) if !p.is_absolute() => cwd.join(p),
+                _ => p.to_path_buf(),
+            })
     };
     let (target, base) = (absolute(target), absolute(base));
     let (t, b) = (parts(&target), parts(&base));
@@ -631,7 +632,10 @@ mod tests {
         assert_eq!(relative(run, page), expected);
         assert_eq!(relative(&cwd.join(run), page), expected);
         assert_eq!(relative(run, &cwd.join(page)), expected);
-        assert_eq!(relative(&cwd.join("docs/../results/figure2"), page), expected);
+        assert_eq!(
+            relative(&cwd.join("docs/../results/figure2"), page),
+            expected
+        );
     }
 
     #[test]
