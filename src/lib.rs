@@ -9,7 +9,8 @@
 //! 1. [`config`] (the run configuration, `configs/*.toml`), [`agents`] (the learner a
 //!    configuration asks for), [`files`] (run files written atomically), [`cli`] (what
 //!    the command-line tools share), [`font`] (the bundled font of charts and captions),
-//!    [`png`] (charts written atomically), [`plan`] (the planner: the simulator searched
+//!    [`png`] (charts written atomically), [`provenance`] (the commit a binary was
+//!    built from), [`plan`] (the planner: the simulator searched
 //!    for each episode's best plan);
 //! 2. [`play`]: who plays, episodes on held-out seeds, test metrics, trajectories,
 //!    animations;
@@ -31,6 +32,7 @@ pub mod league;
 pub mod plan;
 pub mod play;
 pub mod png;
+pub mod provenance;
 pub mod report;
 pub mod run;
 pub mod self_play;

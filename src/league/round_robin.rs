@@ -16,6 +16,7 @@ use serde::{Deserialize, Serialize};
 use crate::files::write_atomic;
 use crate::play::contestant::Contestant;
 use crate::play::matches::{MatchResult, MatchRules, match_table, play_match, round_seed};
+use crate::provenance::BUILD_COMMIT;
 
 /// A league's settings and agents (`league.toml`): fixed when it is created, agents
 /// added later.
@@ -48,16 +49,22 @@ pub struct MatchRecord {
     pub round: u32,
     /// How it ended.
     pub result: MatchResult,
+    /// The table's preset it was played on (empty in rows written before it was
+    /// recorded).
+    pub preset: String,
+    /// The commit of the binary that played it ([`BUILD_COMMIT`]; empty in rows written
+    /// before it was recorded).
+    pub commit: String,
 }
 
-const HEADER: &str =
-    "yellow,black,round,yellow_goals,black_goals,steps,serves,yellow_spins,black_spins";
+const HEADER: &str = "yellow,black,round,yellow_goals,black_goals,steps,serves,yellow_spins,\
+                      black_spins,preset,commit";
 
 impl MatchRecord {
     fn line(&self) -> String {
         let r = &self.result;
         format!(
-            "{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{}",
             self.yellow,
             self.black,
             self.round,
@@ -66,16 +73,26 @@ impl MatchRecord {
             r.steps,
             r.serves,
             r.yellow_spins,
-            r.black_spins
+            r.black_spins,
+            self.preset,
+            self.commit
         )
     }
 
+    /// A row of `matches.csv`: eleven fields, or the first nine of a file written before
+    /// the preset and the commit were recorded (both then empty).
     fn parse(line: &str) -> Option<Self> {
         let f: Vec<&str> = line.split(',').collect();
-        let [yellow, black, round, yg, bg, steps, serves, ys, bs] = f.as_slice() else {
+        let (fields, preset, commit) = match f.as_slice() {
+            [fields @ .., preset, commit] if fields.len() == 9 => (fields, *preset, *commit),
+            fields => (fields, "", ""),
+        };
+        let [yellow, black, round, yg, bg, steps, serves, ys, bs] = fields else {
             return None;
         };
         Some(Self {
+            preset: preset.to_string(),
+            commit: commit.to_string(),
             yellow: yellow.to_string(),
             black: black.to_string(),
             round: round.parse().ok()?,
@@ -232,6 +249,8 @@ impl LeagueDir {
                             black: self.league.agents[b].clone(),
                             round,
                             result,
+                            preset: self.league.table.preset.name().to_string(),
+                            commit: BUILD_COMMIT.to_string(),
                         })
                     })
                     .collect()

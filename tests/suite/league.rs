@@ -167,3 +167,31 @@ fn a_runs_about_line_counts_the_stages_it_started_from() {
         first.about()
     );
 }
+
+/// Each match row names the table's preset and the commit of the binary that played it;
+/// a file written before those columns reads on, its rows' columns empty, and a grown
+/// league keeps them as they were.
+#[test]
+fn a_match_row_records_the_preset_and_the_commit() {
+    let commit = foosball_rl::provenance::BUILD_COMMIT;
+    assert!(!commit.is_empty() && !commit.contains(','), "{commit}");
+    let csv = matches_csv("league-provenance", 1);
+    assert!(csv.lines().next().unwrap().ends_with(",preset,commit"));
+    for row in csv.lines().skip(1) {
+        assert!(row.ends_with(&format!(",reference,{commit}")), "{row}");
+    }
+    // The same matches in the old nine-column shape: they read, and only new ones play.
+    let dir = scratch("league-old-rows");
+    let old: String = csv
+        .lines()
+        .map(|l| l.splitn(10, ',').take(9).collect::<Vec<_>>().join(",") + "\n")
+        .collect();
+    std::fs::write(dir.join("matches.csv"), &old).unwrap();
+    let l = LeagueDir::open(&dir, league(&["shooter", "zero", "random"])).unwrap();
+    assert!(l.pending().is_empty());
+    assert!(
+        l.records
+            .iter()
+            .all(|r| r.preset.is_empty() && r.commit.is_empty())
+    );
+}
