@@ -6,7 +6,7 @@ use crate::plan::PlannerConfig;
 use foosball_algos::{
     FourierConfig, NetConfig, NormalizeConfig, OffPolicyConfig, PpoConfig, SacConfig, Td3Config,
 };
-use foosball_env::config_file::{self, ExtendsError, Layers};
+use foosball_env::config_file::{self, ExtendsError, Layers, line_at};
 use foosball_env::starts::validate_drills;
 use foosball_env::{ConfigError, Drill, FoosballConfig, ObservationKind, OpponentKind, Serve};
 use foosball_nets::Backend;
@@ -908,10 +908,7 @@ impl RunConfig {
             (layer.path.clone(), line_of_key(&layer.text, key))
         };
         Self::from_one_file(&merged, &layers.files[0].path).map_err(|e| match e {
-            ConfigFileError::Parse {
-                line, key, message, ..
-            } => {
-                let key = key.or_else(|| key_on_line(&merged, line));
+            ConfigFileError::Parse { key, message, .. } => {
                 let (path, line) = match &key {
                     Some(k) => place(k),
                     None => (layers.files[0].path.clone(), None),
@@ -1207,11 +1204,6 @@ pub(crate) fn migrate_legacy_keys(text: &str) -> Cow<'_, str> {
     } else {
         Cow::Borrowed(text)
     }
-}
-
-/// 1-based line of byte offset `at`.
-fn line_at(text: &str, at: usize) -> usize {
-    text[..at.min(text.len())].matches('\n').count() + 1
 }
 
 /// The dotted key that 1-based `line` of `text` assigns (under the nearest `[table]`

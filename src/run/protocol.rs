@@ -101,9 +101,8 @@ impl Protocol<'_> {
         let n = p.envs;
         let update = if steps + n as u64 >= end {
             let seeds = restart_seeds(p.seed, epoch, n);
-            let agent = &mut *self.agent;
             self.collector
-                .step_then_restart(agent, remaining, &seeds, on_episode)
+                .step_then_restart(self.agent, remaining, &seeds, on_episode)
         } else {
             self.collector.step(self.agent, remaining, on_episode)
         }?;

@@ -20,7 +20,7 @@ use crate::self_play::SelfPlay;
 use crate::self_play::pool::PoolState;
 use foosball_algos::{Agent, Collector};
 use foosball_env::{FoosballEnv, VecEnv};
-use foosball_nets::Snapshot;
+use foosball_nets::{Snapshot, SnapshotError};
 use std::path::Path;
 
 pub use super::error::TrainError;
@@ -111,7 +111,7 @@ pub fn train_agent(
                 let dir = checkpoint::find(run_dir)
                     .ok_or_else(|| TrainError::NoCheckpoint(run_dir.to_path_buf()))?;
                 let (state, snap) = checkpoint::load(&dir, agent.as_mut())?;
-                (state, Some(snap))
+                (state, Some((dir, snap)))
             }
             Start::Fresh => {
                 init_networks(config, agent.as_mut()).map_err(TrainError::Init)?;
@@ -134,7 +134,8 @@ pub fn train_agent(
             (agent.env_steps(), agent.gradient_steps()),
             config.env.agent_dt(),
         )?;
-        let (hooks, envs) = hooks_and_envs(config, run_dir, agent.env_steps(), snap.as_ref())?;
+        let resumed = snap.as_ref().map(|(dir, snap)| (dir.as_path(), snap));
+        let (hooks, envs) = hooks_and_envs(config, run_dir, agent.env_steps(), resumed)?;
         let envs = envs
             .into_iter()
             .map(|env| env.with_drills(config.drills.clone()));
@@ -159,35 +160,23 @@ pub fn train_agent(
 }
 
 /// The hooks of `config`'s run (self-play, the curriculum's success schedule, DAgger;
-/// from a checkpoint's `snap` on a resume) and its `protocol.envs` training envs: the
-/// self-play pool's, else the table's with the curriculum's starts, if any, from
-/// `env_steps` on.
+/// on a resume, each from the state it saved in the checkpoint `resumed` names and holds)
+/// and its `protocol.envs` training envs: the self-play pool's, else the table's with the
+/// curriculum's starts, if any, from `env_steps` on.
 fn hooks_and_envs(
     config: &RunConfig,
     run_dir: &Path,
     env_steps: u64,
-    snap: Option<&Snapshot<'_>>,
+    resumed: Option<(&Path, &Snapshot<'_>)>,
 ) -> Result<(Hooks, Vec<FoosballEnv>), TrainError> {
-    let state_error = |source| CheckpointError::State {
-        path: run_dir.join("checkpoint"),
-        source,
-    };
     let n = config.protocol.envs;
     let mut hooks: Hooks = Vec::new();
     let teacher = load_teacher(config).map_err(TrainError::Init)?;
-    let schedule_state = snap
-        .map(CurriculumState::load)
-        .transpose()
-        .map_err(state_error)?
-        .flatten();
+    let schedule_state = saved_state(resumed, CurriculumState::load)?;
     let schedule = SuccessSchedule::start(config, teacher.as_ref(), schedule_state);
     let envs = match &config.self_play {
         Some(sp) => {
-            let pool = snap
-                .map(PoolState::load)
-                .transpose()
-                .map_err(state_error)?
-                .flatten();
+            let pool = saved_state(resumed, PoolState::load)?;
             let self_play = SelfPlay::start(config, sp, run_dir, n, pool.as_ref())?;
             let envs = self_play.envs(n)?;
             hooks.push(Box::new(self_play));
@@ -199,13 +188,25 @@ fn hooks_and_envs(
     if let Some(schedule) = schedule {
         hooks.push(Box::new(schedule));
     }
-    let dagger_state = snap
-        .map(DaggerState::load)
-        .transpose()
-        .map_err(state_error)?
-        .flatten();
+    let dagger_state = saved_state(resumed, DaggerState::load)?;
     if let Some(dagger) = Dagger::start(config, dagger_state).map_err(TrainError::Init)? {
         hooks.push(Box::new(dagger));
     }
     Ok((hooks, envs))
+}
+
+/// A hook's state as `load` reads it from the checkpoint `resumed` names and holds
+/// (`None` on a fresh start, or where the checkpoint holds none); a torn entry names the
+/// checkpoint.
+fn saved_state<T>(
+    resumed: Option<(&Path, &Snapshot<'_>)>,
+    load: fn(&Snapshot<'_>) -> Result<Option<T>, SnapshotError>,
+) -> Result<Option<T>, CheckpointError> {
+    let Some((dir, snap)) = resumed else {
+        return Ok(None);
+    };
+    load(snap).map_err(|source| CheckpointError::State {
+        path: dir.to_path_buf(),
+        source,
+    })
 }

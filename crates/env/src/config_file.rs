@@ -143,9 +143,8 @@ pub fn layers(text: &str, path: &Path) -> Result<Option<Layers>, ExtendsError> {
             chain.push(base);
             return Err(ExtendsError::Cycle { chain });
         }
-        let by = &files[files.len() - 1].path;
         text = std::fs::read_to_string(&base).map_err(|source| ExtendsError::Read {
-            by: by.clone(),
+            by: files[files.len() - 1].path.clone(),
             named: named.clone(),
             path: base.clone(),
             source,
@@ -154,9 +153,7 @@ pub fn layers(text: &str, path: &Path) -> Result<Option<Layers>, ExtendsError> {
             .parse::<toml::Table>()
             .map_err(|e| ExtendsError::Parse {
                 path: base.clone(),
-                line: e
-                    .span()
-                    .map_or(1, |s| text[..s.start].matches('\n').count() + 1),
+                line: e.span().map_or(1, |s| line_at(&text, s.start)),
                 message: e.message().trim().to_string(),
             })?;
         path = base;
@@ -166,6 +163,11 @@ pub fn layers(text: &str, path: &Path) -> Result<Option<Layers>, ExtendsError> {
         overlay(&mut merged, layer.table.clone());
     }
     Ok(Some(Layers { files, merged }))
+}
+
+/// 1-based line of byte offset `at` of `text` (its end where `at` is past it).
+pub fn line_at(text: &str, at: usize) -> usize {
+    text[..at.min(text.len())].matches('\n').count() + 1
 }
 
 /// Whether two paths name the same file (compared canonically where both exist).
