@@ -11,7 +11,8 @@
 //!    the command-line tools share), [`font`] (the bundled font of charts and captions),
 //!    [`png`] (charts written atomically), [`provenance`] (the commit a binary was
 //!    built from), [`plan`] (the planner: the simulator searched
-//!    for each episode's best plan);
+//!    for each episode's best plan), [`onnx`] (policies written as ONNX and played by
+//!    tract);
 //! 2. [`play`]: who plays, episodes on held-out seeds, test metrics, trajectories,
 //!    animations;
 //! 3. [`self_play`]: the opponent pool of self-play training (snapshots, anchors,
@@ -29,6 +30,7 @@ pub mod config;
 pub mod files;
 pub mod font;
 pub mod league;
+pub mod onnx;
 pub mod plan;
 pub mod play;
 pub mod png;

@@ -1,5 +1,6 @@
-//! `evaluate`: the test phase of a finished or interrupted run, on its saved networks, or
-//! of a scripted policy (`--policy shooter|dribbler|zero|random|blocker`) under a rule preset;
+//! `evaluate`: the test phase of a finished or interrupted run, on its saved networks, of
+//! a scripted policy (`--policy shooter|dribbler|zero|random|blocker`) under a rule preset,
+//! or of a policy from outside (`--run FILE.onnx`, `--process COMMAND`);
 //! with `--opponent`, two-sided matches against another player instead
 //! ([`foosball_rl::play::matches`]).
 
@@ -29,8 +30,8 @@ struct Args {
     episodes: Option<u32>,
     /// Where to write metrics and trajectories (default `RUN/evaluate-<checkpoint>`, with
     /// `-stochastic` after it for sampled actions and `-on-<preset>` or `-on-<config's
-    /// file stem>` for another game, or
-    /// `baselines/<policy>-<preset>` for a policy).
+    /// file stem>` for another game, `baselines/<policy>-<preset>` for a policy,
+    /// `<FILE stem>-test-<preset>` beside an ONNX file; required with `--process`).
     #[arg(long)]
     out: Option<PathBuf>,
     /// Play two-sided matches against this opponent instead of the test: a scripted
@@ -118,16 +119,11 @@ fn head_to_head(player: &Player, opponent: &Contestant, args: &Args) -> Result<S
     ))
 }
 
-fn run(args: &Args) -> Result<String, String> {
-    let player = Player::from_args(&args.player)?;
-    if let Some(opponent) = &args.opponent {
-        return head_to_head(&player, opponent, args);
-    }
-    let episodes = match args.episodes.unwrap_or(player.default_episodes()) {
-        0 => return Err("--episodes must be positive".into()),
-        n => n,
-    };
-    let out = args.out.clone().unwrap_or_else(|| match &player {
+/// Where the test files go without `--out`: `RUN/evaluate-<checkpoint>[-stochastic]
+/// [-on-<game>]`, `baselines/<policy>-<preset>`, or `<FILE stem>-test-<preset>` beside an
+/// ONNX file; a program's must be named.
+fn default_out(player: &Player, args: &Args) -> Result<PathBuf, String> {
+    Ok(match player {
         Player::Networks {
             dir,
             checkpoint,
@@ -150,7 +146,32 @@ fn run(args: &Args) -> Result<String, String> {
             b.policy.name(),
             b.env.preset.name()
         )),
-    });
+        Player::Outside {
+            contestant: Contestant::Onnx { path },
+            env,
+            ..
+        } => path.with_file_name(format!(
+            "{}-test-{}",
+            path.file_stem().unwrap_or_default().to_string_lossy(),
+            env.preset.name()
+        )),
+        Player::Outside { .. } => return Err("--out: say where a program's test files go".into()),
+    })
+}
+
+fn run(args: &Args) -> Result<String, String> {
+    let player = Player::from_args(&args.player)?;
+    if let Some(opponent) = &args.opponent {
+        return head_to_head(&player, opponent, args);
+    }
+    let episodes = match args.episodes.unwrap_or(player.default_episodes()) {
+        0 => return Err("--episodes must be positive".into()),
+        n => n,
+    };
+    let out = match &args.out {
+        Some(out) => out.clone(),
+        None => default_out(&player, args)?,
+    };
     let metrics = player.test(episodes, &out)?;
     Ok(format!(
         "{}\n{}\nresults in {}",

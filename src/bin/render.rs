@@ -1,7 +1,7 @@
 //! `render`: episodes as captioned animations (GIF, MP4 through ffmpeg, a PNG still of
 //! the last step), drawn top-down
 //! by `foosball_env::render`: recorded ones (a `trajectories.bin`, or a run's test) or
-//! played live by a run's saved networks or a scripted policy.
+//! played live by a run's saved networks, a scripted policy, an ONNX file or a program.
 
 use clap::Parser;
 use foosball_rl::cli::finish;
@@ -9,7 +9,7 @@ use foosball_rl::config::RunConfig;
 use foosball_rl::env::geometry::GOAL_LINE_Y;
 use foosball_rl::env::render::Renderer;
 use foosball_rl::play::animation::{Animation, Container, ffmpeg_available};
-use foosball_rl::play::player::{Player, PlayerArgs};
+use foosball_rl::play::player::{Player, PlayerArgs, is_onnx};
 use foosball_rl::play::trajectories::{RecordedEpisode, by_return, read_trajectories};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -81,7 +81,7 @@ fn episodes(args: &Args) -> Result<Source, String> {
                 stochastic: false,
                 ..
             },
-        ) => Some(run.join("test/trajectories.bin")),
+        ) if !is_onnx(run) => Some(run.join("test/trajectories.bin")),
         _ => None,
     };
     if let Some(file) = recorded {

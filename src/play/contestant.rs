@@ -1,7 +1,8 @@
-//! Who plays one side of a two-sided match: a run's saved networks or a scripted policy,
-//! named on the command line as `shooter`, `blocker`, ... or `DIR[@best|@last][~sampled]`,
-//! either with `+hold=ROD[,ROD]` to hold some of its rods at neutral (a diagnosis: which
-//! rod's play lets goals in).
+//! Who plays one side of a two-sided match: a run's saved networks, a scripted policy, a
+//! policy from outside (an ONNX file, or a program speaking `act`'s line protocol), named
+//! on the command line as `shooter`, `blocker`, ..., `DIR[@best|@last][~sampled]`,
+//! `FILE.onnx` or `process:COMMAND`, any of them with `+hold=ROD[,ROD]` to hold some of
+//! its rods at neutral (a diagnosis: which rod's play lets goals in).
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -9,16 +10,20 @@ use std::str::FromStr;
 
 use clap::ValueEnum;
 use foosball_algos::ActMode;
+use foosball_env::config::ActionMap;
 use foosball_env::geometry::RODS;
-use foosball_env::layout::{ACTION_DIM, action_slide, action_turn};
+use foosball_env::layout::{ACTION_DIM, OBS_DIM, action_slide, action_turn};
 use foosball_env::seeding::{ACTION_SAMPLING, derive_seed};
 use foosball_env::{FoosballConfig, ObservationKind};
 use serde::{Deserialize, Serialize};
 
 use super::evaluation::OwnedPolicy;
+use super::process::{ANSWER_LIMIT, ProcessPolicy};
 use super::scripted::ScriptedPolicy;
 use crate::agents::load_agent;
 use crate::config::{Checkpoint, RunConfig, TestActions};
+use crate::onnx::CONFIG_KEY;
+use crate::onnx::runtime::{OnnxPolicy, read_metadata};
 
 /// One side's player.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -35,6 +40,18 @@ pub enum Contestant {
         /// How they act (default deterministic).
         actions: TestActions,
     },
+    /// A policy in an ONNX file (`FILE.onnx`, [`crate::onnx`]): the table's 38 state
+    /// values in, 8 actions out.
+    Onnx {
+        /// The file.
+        path: PathBuf,
+    },
+    /// A program that answers observations with actions in `act`'s line protocol
+    /// (`process:COMMAND`, started with `sh -c`; [`super::process`]).
+    Process {
+        /// The command line.
+        command: String,
+    },
     /// Another contestant whose commands for some rods are replaced by 0 (the rod held at
     /// neutral, feet down) every step.
     Held {
@@ -49,15 +66,31 @@ pub enum Contestant {
 impl FromStr for Contestant {
     type Err = String;
 
-    /// `shooter`, `dribbler`, `zero`, `random`, `blocker`, or a run directory with optional
-    /// `@best`/`@last` and `~sampled` (e.g. `results/figure2/sac-seed0@best~sampled`),
-    /// either followed by `+hold=ROD[,ROD]` with rods named as in [`RODS`].
+    /// `shooter`, `dribbler`, `zero`, `random`, `blocker`, a run directory with optional
+    /// `@best`/`@last` and `~sampled` (e.g. `results/figure2/sac-seed0@best~sampled`), an
+    /// ONNX file `FILE.onnx` or `process:COMMAND`, any followed by `+hold=ROD[,ROD]` with
+    /// rods named as in [`RODS`].
     fn from_str(s: &str) -> Result<Self, String> {
         if let Some((player, names)) = s.rsplit_once("+hold=") {
             return player
                 .parse::<Contestant>()?
                 .holding(names)
                 .map_err(|why| format!("contestant `{s}`: {why}"));
+        }
+        if let Some(command) = s.strip_prefix("process:") {
+            if command.trim().is_empty() {
+                return Err(format!("contestant `{s}`: no command after `process:`"));
+            }
+            return Ok(Contestant::Process {
+                command: command.to_string(),
+            });
+        }
+        if s.ends_with(".onnx") {
+            let path = PathBuf::from(s);
+            if !path.is_file() {
+                return Err(format!("contestant `{s}`: no such ONNX file"));
+            }
+            return Ok(Contestant::Onnx { path });
         }
         for policy in [
             ScriptedPolicy::Shooter,
@@ -116,6 +149,8 @@ impl fmt::Display for Contestant {
                 }
                 Ok(())
             }
+            Contestant::Onnx { path } => write!(f, "{}", path.display()),
+            Contestant::Process { command } => write!(f, "process:{command}"),
             Contestant::Held { player, rods } => {
                 write!(f, "{player}+hold={}", rod_names(rods, ","))
             }
@@ -135,6 +170,18 @@ impl Contestant {
                     .unwrap_or_default();
                 format!("scripted: {help}")
             }
+            Contestant::Onnx { path } => match exported_config(path) {
+                Ok(Some(c)) => format!(
+                    "ONNX export of {} {} networks trained {} env steps on {}",
+                    c.algo(),
+                    c.hidden_label(),
+                    c.protocol.total_env_steps(),
+                    c.env.preset.name()
+                ),
+                Ok(None) => "an ONNX policy".to_string(),
+                Err(e) => format!("an ONNX policy ({e})"),
+            },
+            Contestant::Process { .. } => "a program answering in act's line protocol".into(),
             Contestant::Run {
                 dir,
                 checkpoint,
@@ -178,7 +225,7 @@ impl Contestant {
     /// Its run directory (none for a scripted policy).
     pub fn run_dir(&self) -> Option<&Path> {
         match self {
-            Contestant::Scripted(_) => None,
+            Contestant::Scripted(_) | Contestant::Onnx { .. } | Contestant::Process { .. } => None,
             Contestant::Run { dir, .. } => Some(dir),
             Contestant::Held { player, .. } => player.run_dir(),
         }
@@ -190,16 +237,14 @@ impl Contestant {
     pub fn short_name(&self, depth: usize) -> String {
         match self {
             Contestant::Scripted(p) => p.name().to_string(),
+            Contestant::Onnx { path } => last_components(path, depth),
+            Contestant::Process { command } => format!("process:{command}"),
             Contestant::Run {
                 dir,
                 checkpoint,
                 actions,
             } => {
-                let parts: Vec<String> = dir
-                    .components()
-                    .map(|c| c.as_os_str().to_string_lossy().into_owned())
-                    .collect();
-                let mut name = parts[parts.len().saturating_sub(depth.max(1))..].join("/");
+                let mut name = last_components(dir, depth);
                 if *checkpoint == Checkpoint::Best {
                     name += "@best";
                 }
@@ -224,11 +269,34 @@ impl Contestant {
     }
 
     /// Its policy on `table`, seeded by `seed` where it draws (random commands, sampled
-    /// actions). A run's networks must have been trained on observations and actions
-    /// that mean on `table` what they meant in training; a refusal says what differs.
+    /// actions). A run's networks (and an ONNX file exported from a run) must have been
+    /// trained on observations and actions that mean on `table` what they meant in
+    /// training; a refusal says what differs. An outside policy without a run's
+    /// configuration is taken to read and write the table's own `ball_frame` and
+    /// `action_map`.
     pub fn policy(&self, table: &FoosballConfig, seed: u64) -> Result<OwnedPolicy, String> {
         match self {
             Contestant::Scripted(p) => p.batch_policy(seed, table),
+            Contestant::Onnx { path } => {
+                let onnx = OnnxPolicy::load(path, OBS_DIM, ACTION_DIM)?;
+                let trained_map = match exported_config(path)? {
+                    Some(c) => {
+                        plays_on(&c.env, table)
+                            .map_err(|why| format!("{}: {why}", path.display()))?;
+                        c.env.action_map
+                    }
+                    None => table.action_map,
+                };
+                let table_map = table.action_map;
+                Ok(Box::new(move |obs: &[f32]| {
+                    Ok(translated(onnx.act(obs)?, trained_map, table_map))
+                }))
+            }
+            Contestant::Process { command } => {
+                let mut process =
+                    ProcessPolicy::start(command, (OBS_DIM, ACTION_DIM), ANSWER_LIMIT)?;
+                Ok(Box::new(move |obs: &[f32]| process.act(obs)))
+            }
             Contestant::Run {
                 dir,
                 checkpoint,
@@ -254,16 +322,7 @@ impl Contestant {
                     } else {
                         agent.act(obs, mode)
                     };
-                    if trained_map == table_map {
-                        return action;
-                    }
-                    action
-                        .chunks_exact(ACTION_DIM)
-                        .flat_map(|row| {
-                            let row: [f32; ACTION_DIM] = row.try_into().expect("chunks of 8");
-                            trained_map.translate(table_map, row)
-                        })
-                        .collect()
+                    Ok(translated(action, trained_map, table_map))
                 }))
             }
             Contestant::Held { player, rods } => {
@@ -273,17 +332,53 @@ impl Contestant {
                     .flat_map(|&r| [action_slide(r), action_turn(r)])
                     .collect();
                 Ok(Box::new(move |obs: &[f32]| {
-                    let mut action = policy(obs);
+                    let mut action = policy(obs)?;
                     for &i in &held {
                         if let Some(a) = action.get_mut(i) {
                             *a = 0.0;
                         }
                     }
-                    action
+                    Ok(action)
                 }))
             }
         }
     }
+}
+
+/// `actions` (`[n, 8]`) written in `trained`'s action map, in `table`'s
+/// ([`foosball_env::config::ActionMap::translate`]: the same servo targets).
+fn translated(actions: Vec<f32>, trained: ActionMap, table: ActionMap) -> Vec<f32> {
+    if trained == table {
+        return actions;
+    }
+    actions
+        .chunks_exact(ACTION_DIM)
+        .flat_map(|row| {
+            let row: [f32; ACTION_DIM] = row.try_into().expect("chunks of 8");
+            trained.translate(table, row)
+        })
+        .collect()
+}
+
+/// The configuration of the run an ONNX file was exported from, where `export` wrote it
+/// into the file; an error names the file.
+pub fn exported_config(path: &Path) -> Result<Option<RunConfig>, String> {
+    let Some(text) = read_metadata(path, CONFIG_KEY)? else {
+        return Ok(None);
+    };
+    let name = path.join(CONFIG_KEY);
+    RunConfig::from_toml(&text, &name)
+        .map(Some)
+        .map_err(|e| e.to_string())
+}
+
+/// The last `depth` (at least one) components of `path`, joined by `/`.
+fn last_components(path: &Path, depth: usize) -> String {
+    let parts: Vec<String> = path
+        .components()
+        .map(|c| c.as_os_str().to_string_lossy().into_owned())
+        .collect();
+    parts[parts.len().saturating_sub(depth.max(1))..].join("/")
 }
 
 /// Env steps a run's networks trained in all: its own protocol's and those of the runs
@@ -378,7 +473,6 @@ fn acts_alike(trained: &FoosballConfig, table: &FoosballConfig) -> Result<(), St
 #[cfg(test)]
 mod tests {
     use super::*;
-    use foosball_env::layout::OBS_DIM;
 
     #[test]
     fn held_rods_parse_print_and_hold() {
@@ -394,7 +488,7 @@ mod tests {
         let table = FoosballConfig::default();
         let mut policy = c.policy(&table, 3).unwrap();
         for _ in 0..20 {
-            let a = policy(&[0.0; OBS_DIM]);
+            let a = policy(&[0.0; OBS_DIM]).unwrap();
             assert_eq!([a[0], a[1], a[4], a[5]], [0.0; 4]);
             assert!([a[2], a[3], a[6], a[7]].iter().all(|v| *v != 0.0));
         }

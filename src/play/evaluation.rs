@@ -11,8 +11,10 @@ use foosball_algos::{Agent, EpisodeLog, play_episodes, sampled};
 pub use foosball_algos::{BatchPolicy, deterministic};
 
 /// A policy over batches of agent-view observations that owns what it needs (its
-/// networks or controller) and can move to another thread: one side of a match.
-pub type OwnedPolicy = Box<dyn FnMut(&[f32]) -> Vec<f32> + Send>;
+/// networks, controller, ONNX file or program) and can move to another thread: one side
+/// of a match. An error (an outside policy's: a process that died, a non-finite action)
+/// ends what it plays.
+pub type OwnedPolicy = Box<dyn FnMut(&[f32]) -> Result<Vec<f32>, String> + Send>;
 use foosball_env::seeding::{ACTION_SAMPLING, derive_seed};
 use foosball_env::{EnvError, FoosballConfig, FoosballEnv, FoosballInfo, Transition, layout};
 use std::path::Path;
@@ -23,6 +25,9 @@ pub enum PlayError {
     /// A table refused its settings or an action, or cannot serve the policy.
     #[error("environment: {0}")]
     Env(String),
+    /// The policy failed (an outside policy: its file or program).
+    #[error("policy: {0}")]
+    Policy(String),
     /// A test file could not be written.
     #[error(transparent)]
     File(#[from] RunFileError),
@@ -120,6 +125,30 @@ pub fn play(
     Ok(play_episodes(policy, &mut envs, &seeds, |seed| {
         PlayedEpisode::new(seed, episodes.record)
     })?)
+}
+
+/// The `episodes` played by an [`OwnedPolicy`] of the table's state observation; its
+/// first error ends the play and is returned.
+pub fn play_owned(
+    policy: &mut OwnedPolicy,
+    episodes: &Episodes<'_>,
+) -> Result<Vec<PlayedEpisode>, PlayError> {
+    let mut fault = None;
+    let played = play(
+        &mut |obs: &[f32]| match policy(obs) {
+            Ok(actions) => actions,
+            Err(e) => {
+                fault.get_or_insert(e);
+                // The table refuses a non-finite action: the play ends at this step.
+                vec![f32::NAN; obs.len() / layout::OBS_DIM * layout::ACTION_DIM]
+            }
+        },
+        episodes,
+    );
+    match fault {
+        Some(e) => Err(PlayError::Policy(e)),
+        None => played,
+    }
 }
 
 /// The `episodes` played by a trained `agent` acting as `actions` says; sampled actions

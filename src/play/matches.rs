@@ -32,6 +32,7 @@ use foosball_env::{
     EndReason, Env, EnvRng, FoosballConfig, FoosballEnv, Opponent, foosball::in_ball_frame,
 };
 use serde::{Deserialize, Serialize};
+use std::sync::{Arc, Mutex, PoisonError};
 
 use super::contestant::Contestant;
 use super::evaluation::OwnedPolicy;
@@ -300,23 +301,42 @@ pub fn symmetric_goals(table: &FoosballConfig) -> FoosballConfig {
 }
 
 /// Black driven by a policy trained as yellow: it is handed black's mirrored view in
-/// the table's ball frame, and its action is black's in black's own frame.
+/// the table's ball frame, and its action is black's in black's own frame. Where the
+/// policy fails (an outside policy's error), black's rods hold and the first error is
+/// kept in its [`PolicyOpponent::fault`] for whoever drives the table.
 pub struct PolicyOpponent {
     policy: OwnedPolicy,
     frame: BallFrame,
+    fault: Arc<Mutex<Option<String>>>,
 }
 
 impl PolicyOpponent {
     /// `policy` playing black on a table whose ball numbers are in `frame`.
     pub fn new(policy: OwnedPolicy, frame: BallFrame) -> Self {
-        Self { policy, frame }
+        Self {
+            policy,
+            frame,
+            fault: Arc::default(),
+        }
+    }
+
+    /// Where its policy's first error is kept (shared: read it after the opponent has
+    /// moved into a table).
+    pub fn fault(&self) -> Arc<Mutex<Option<String>>> {
+        Arc::clone(&self.fault)
     }
 }
 
 impl Opponent for PolicyOpponent {
     fn act(&mut self, obs: &[f32; OBS_DIM], _rng: &mut EnvRng) -> [f32; ACTION_DIM] {
-        let action = (self.policy)(&in_ball_frame(obs, self.frame));
-        std::array::from_fn(|i| action.get(i).copied().unwrap_or(0.0))
+        match (self.policy)(&in_ball_frame(obs, self.frame)) {
+            Ok(action) => std::array::from_fn(|i| action.get(i).copied().unwrap_or(0.0)),
+            Err(e) => {
+                let mut fault = self.fault.lock().unwrap_or_else(PoisonError::into_inner);
+                fault.get_or_insert(e);
+                [0.0; ACTION_DIM]
+            }
+        }
     }
 }
 
@@ -344,8 +364,10 @@ pub fn play_match_traced(
     seed: u64,
 ) -> Result<(MatchResult, BallFlow), String> {
     let mut act = yellow.policy(table, derive_seed(seed, MATCHES, u64::MAX))?;
+    let black_name = black.to_string();
     let black = black.policy(table, derive_seed(seed, MATCHES, u64::MAX - 1))?;
     let opponent = PolicyOpponent::new(black, table.ball_frame);
+    let black_fault = opponent.fault();
     let mut env = FoosballEnv::with_opponent(table.clone(), Box::new(opponent))
         .map_err(|e| format!("match table: env.{e}"))?;
     let limit = (f64::from(rules.time_limit_s) / f64::from(table.agent_dt())).round() as u64;
@@ -364,13 +386,16 @@ pub fn play_match_traced(
         let mut spins = [0; 2];
         let mut xy = ball_xy(&env);
         while result.steps < limit {
-            let mut action = act(&obs);
+            let mut action = act(&obs).map_err(|e| format!("yellow ({yellow}): {e}"))?;
             action.resize(ACTION_DIM, 0.0);
             action
                 .iter_mut()
                 .filter(|a| !a.is_finite())
                 .for_each(|a| *a = 0.0);
             let (next, t) = env.step(&action).map_err(|e| e.to_string())?;
+            if let Some(e) = black_fault.lock().ok().and_then(|mut f| f.take()) {
+                return Err(format!("black ({black_name}): {e}"));
+            }
             result.steps += 1;
             obs = next;
             spins = t.info.spins;

@@ -1,8 +1,9 @@
-//! Who plays test episodes for `evaluate` and `render`: a run's saved networks or a
-//! scripted policy on a table, chosen by the same command-line options in both.
+//! Who plays test episodes for `evaluate` and `render`: a run's saved networks, a
+//! scripted policy, or a policy from outside (an ONNX file, a program) on a table, chosen
+//! by the same command-line options in both.
 
-use super::contestant::{Contestant, means_the_same};
-use super::evaluation::{Episodes, PlayedEpisode, play_agent, write_test};
+use super::contestant::{Contestant, exported_config, means_the_same};
+use super::evaluation::{Episodes, PlayedEpisode, play_agent, play_owned, write_test};
 use super::metrics::TestMetrics;
 use super::scripted::{Baseline, ScriptedPolicy};
 use crate::agents::load_agent;
@@ -15,9 +16,14 @@ use std::path::{Path, PathBuf};
 /// The command-line options that choose a [`Player`].
 #[derive(clap::Args, Clone, Debug, Default)]
 pub struct PlayerArgs {
-    /// Run directory written by `train`.
+    /// Run directory written by `train`, or an ONNX policy file (`FILE.onnx`: the 38
+    /// state values in, 8 actions out; `export` writes one from a run).
     #[arg(long)]
     pub run: Option<PathBuf>,
+    /// A program that answers observations with actions in `act`'s line protocol
+    /// (started with `sh -c`), instead of a run's networks.
+    #[arg(long, conflicts_with_all = ["run", "policy"])]
+    pub process: Option<String>,
     /// Saved networks of the run (default best).
     #[arg(long, value_enum, requires = "run")]
     pub checkpoint: Option<Checkpoint>,
@@ -44,8 +50,9 @@ pub struct PlayerArgs {
     /// or actions would mean something else there).
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// With `--policy`: the seed the test seeds derive from (default the config's, or 0).
-    #[arg(long, requires = "policy")]
+    /// With `--policy`, `--process` or an ONNX file: the seed the test seeds derive from
+    /// (default the config's, an exported run's, or 0).
+    #[arg(long)]
     pub seed: Option<u64>,
     /// With `--policy planner`: a TOML file of the search budget (`population`,
     /// `iterations`, ...; default the planner's defaults).
@@ -83,6 +90,44 @@ fn other_table(
     })
 }
 
+/// Whether `path` names an ONNX file rather than a run directory.
+pub fn is_onnx(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e == "onnx")
+}
+
+/// An outside `contestant`'s player: on the table of `--config` or `--preset`, else of
+/// the run it was `exported` from, else `reference`; from `--seed`'s test seeds, else the
+/// config's or the run's seed, else 0.
+fn outside(
+    contestant: Contestant,
+    exported: Option<RunConfig>,
+    args: &PlayerArgs,
+) -> Result<Player, String> {
+    if args.planner.is_some() {
+        return Err("--planner sets the planner's budget; it plays no outside policy".into());
+    }
+    let (env, seed) = match (&args.config, args.preset, exported) {
+        (Some(path), _, _) => {
+            let c = RunConfig::load(path).map_err(|e| e.to_string())?;
+            (c.env, c.protocol.seed)
+        }
+        (None, Some(preset), _) => (FoosballConfig::preset(preset), 0),
+        (None, None, Some(c)) => (c.env, c.protocol.seed),
+        (None, None, None) => (FoosballConfig::default(), 0),
+    };
+    if env.observation.kind != foosball_env::ObservationKind::State {
+        return Err(format!(
+            "{contestant}: an outside policy reads the 38 state values; the table's \
+             env.observation.kind is not \"state\""
+        ));
+    }
+    Ok(Player::Outside {
+        contestant,
+        env: Box::new(env),
+        seed: args.seed.unwrap_or(seed),
+    })
+}
+
 /// What plays: a run's networks or a scripted policy, each on its own table and seeds.
 #[derive(Clone, Debug)]
 pub enum Player {
@@ -99,11 +144,45 @@ pub enum Player {
     },
     /// A scripted policy on a table.
     Scripted(Box<Baseline>),
+    /// A policy from outside (an ONNX file or a program) on a table, from `seed`'s test
+    /// seeds.
+    Outside {
+        /// Who plays ([`Contestant::Onnx`] or [`Contestant::Process`]).
+        contestant: Contestant,
+        /// The table.
+        env: Box<FoosballConfig>,
+        /// The seed the test seeds derive from.
+        seed: u64,
+    },
 }
 
 impl Player {
     /// The player the options name; an error says which option is missing or at fault.
     pub fn from_args(args: &PlayerArgs) -> Result<Self, String> {
+        if let Some(command) = &args.process {
+            let contestant = Contestant::Process {
+                command: command.clone(),
+            };
+            return outside(contestant, None, args);
+        }
+        if let Some(path) = args.run.as_ref().filter(|p| is_onnx(p)) {
+            if args.checkpoint.is_some() || args.actions.is_some() || args.stochastic {
+                return Err(format!(
+                    "--run {}: an ONNX file holds one deterministic policy (no --checkpoint, \
+                     --actions or --stochastic)",
+                    path.display()
+                ));
+            }
+            let exported = exported_config(path)?;
+            let contestant = format!("{}", path.display()).parse::<Contestant>()?;
+            return outside(contestant, exported, args);
+        }
+        if let (Some(dir), Some(_)) = (&args.run, args.seed) {
+            return Err(format!(
+                "--seed: a run ({}) is tested on its own seeds",
+                dir.display()
+            ));
+        }
         match (&args.run, args.policy) {
             (_, Some(policy)) => {
                 let (env, config_seed) = match &args.config {
@@ -168,6 +247,7 @@ impl Player {
         match self {
             Player::Networks { config, .. } => &config.env,
             Player::Scripted(b) => &b.env,
+            Player::Outside { env, .. } => env,
         }
     }
 
@@ -175,7 +255,7 @@ impl Player {
     pub fn default_episodes(&self) -> u32 {
         match self {
             Player::Networks { config, .. } => config.protocol.test_episodes,
-            Player::Scripted(_) => 1000,
+            Player::Scripted(_) | Player::Outside { .. } => 1000,
         }
     }
 
@@ -198,6 +278,13 @@ impl Player {
                 config.env.preset.name()
             ),
             Player::Scripted(b) => format!("{} under {}", b.policy.name(), b.env.preset.name()),
+            Player::Outside {
+                contestant, env, ..
+            } => format!(
+                "{contestant} ({}) on {}",
+                contestant.about(),
+                env.preset.name()
+            ),
         }
     }
 
@@ -222,6 +309,21 @@ impl Player {
                 play_agent(agent.as_mut(), *actions, &episodes).map_err(|e| e.to_string())
             }
             Player::Scripted(b) => b.play(episodes, record).map_err(|e| e.to_string()),
+            Player::Outside {
+                contestant,
+                env,
+                seed,
+            } => {
+                let mut policy = contestant.policy(env, *seed)?;
+                let episodes = Episodes {
+                    env,
+                    seed: *seed,
+                    stream: TEST_ENVS,
+                    n: episodes,
+                    record,
+                };
+                play_owned(&mut policy, &episodes).map_err(|e| e.to_string())
+            }
         }
     }
 
@@ -239,6 +341,7 @@ impl Player {
                 actions: *actions,
             },
             Player::Scripted(b) => Contestant::Scripted(b.policy),
+            Player::Outside { contestant, .. } => contestant.clone(),
         }
     }
 
@@ -246,7 +349,7 @@ impl Player {
     /// `baseline.toml` for a scripted policy).
     pub fn test(&self, episodes: u32, dir: &Path) -> Result<TestMetrics, String> {
         match self {
-            Player::Networks { .. } => {
+            Player::Networks { .. } | Player::Outside { .. } => {
                 let played = self.play(episodes, true)?;
                 write_test(dir, &played).map_err(|e| e.to_string())
             }

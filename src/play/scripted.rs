@@ -2,7 +2,7 @@
 //! the yardsticks of the report (`evaluate --policy shooter|dribbler|zero|random|blocker`), and
 //! the planner's ceiling (`evaluate --policy planner`, [`super::planned`]).
 
-use super::evaluation::{Episodes, OwnedPolicy, PlayError, PlayedEpisode, play, write_test};
+use super::evaluation::{Episodes, OwnedPolicy, PlayError, PlayedEpisode, play_owned, write_test};
 use super::metrics::TestMetrics;
 use super::planned::{PlanCost, play_planned};
 use crate::files::{RunFileError, write_atomic};
@@ -75,9 +75,14 @@ impl ScriptedPolicy {
                 );
             }
         };
-        Ok(controller_policy(controller, seed, env))
+        let mut policy = controller_policy(controller, seed, env);
+        Ok(Box::new(move |obs: &[f32]| Ok(policy(obs))))
     }
 }
+
+/// A hand-written controller over batches of observations, movable to another thread: it
+/// cannot fail (an [`OwnedPolicy`] of it always answers).
+pub type ControllerPolicy = Box<dyn FnMut(&[f32]) -> Vec<f32> + Send>;
 
 /// `controller` (a hand-written player: it reads the ball in world coordinates and writes
 /// linear commands) as a policy over batches of observations of a table configured as
@@ -88,7 +93,7 @@ pub fn controller_policy(
     mut controller: Box<dyn Opponent>,
     seed: u64,
     env: &FoosballConfig,
-) -> OwnedPolicy {
+) -> ControllerPolicy {
     let mut rng = EnvRng::seed_from_u64(seed);
     let (frame, map) = (env.ball_frame, env.action_map);
     Box::new(move |obs: &[f32]| {
@@ -97,7 +102,7 @@ pub fn controller_policy(
                 let row: &[f32; OBS_DIM] = row.try_into().expect("chunks of OBS_DIM");
                 controller.act_in(map, &from_ball_frame(row, frame), &mut rng)
             })
-            .collect::<Vec<f32>>()
+            .collect()
     })
 }
 
@@ -167,7 +172,7 @@ impl Baseline {
             n: episodes,
             record,
         };
-        Ok((play(act.as_mut(), &episodes)?, None))
+        Ok((play_owned(&mut act, &episodes)?, None))
     }
 
     /// Writes `dir/baseline.toml`.

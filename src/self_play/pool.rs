@@ -353,7 +353,7 @@ mod tests {
 
     fn idle() -> PolicyOpponent {
         PolicyOpponent::new(
-            Box::new(|_: &[f32]| vec![0.0; 8]),
+            Box::new(|_: &[f32]| Ok(vec![0.0; 8])),
             foosball_env::config::BallFrame::default(),
         )
     }

@@ -209,8 +209,9 @@ fn the_root_package_s_layers_import_one_way() {
     let uses = |a: &str, b: &str| g.get(a).is_some_and(|u| u.contains(b));
     assert!(uses("run", "play") && uses("sweep", "run") && uses("report", "play"));
     assert!(uses("league", "play") && uses("self_play", "play") && uses("run", "self_play"));
-    assert!(uses("play", "plan"));
-    for low in ["config", "agents", "files", "png", "plan", "play"] {
+    assert!(uses("play", "plan") && uses("play", "onnx"));
+    assert!(!uses("onnx", "play"), "onnx imports play");
+    for low in ["config", "agents", "files", "png", "plan", "onnx", "play"] {
         for high in ["self_play", "run", "sweep", "report", "league"] {
             assert!(!uses(low, high), "{low} imports {high}");
         }

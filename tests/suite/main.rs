@@ -28,6 +28,7 @@ mod learning;
 mod learning_foosball;
 mod learning_images;
 mod one_step_parity;
+mod onnx;
 mod pendulum_parity;
 mod planner;
 mod presets;

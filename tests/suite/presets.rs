@@ -155,7 +155,7 @@ fn outcomes(config: &FoosballConfig, policy: ScriptedPolicy, episodes: u64) -> (
         let mut obs = env.reset(Some(seed));
         let mut fast = false;
         loop {
-            let (next, t) = env.step(&act(&obs)).unwrap();
+            let (next, t) = env.step(&act(&obs).unwrap()).unwrap();
             obs = next;
             fast |= t.info.ball_speed > 100.0;
             if t.done() {

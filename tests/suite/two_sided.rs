@@ -49,7 +49,7 @@ fn trace(
     let mut obs = env.reset(Some(3));
     let mut out = vec![*env.state().unwrap()];
     for _ in 0..steps {
-        let (next, t) = env.step(&act(&obs)).unwrap();
+        let (next, t) = env.step(&act(&obs).unwrap()).unwrap();
         out.push(*env.state().unwrap());
         obs = next;
         if t.done() {
@@ -210,7 +210,7 @@ fn a_run_plays_a_table_of_the_other_action_map_with_its_own_servo_targets() {
     for seed in 0..20 {
         let mut obs = env.reset(Some(seed));
         for _ in 0..25 {
-            let (a, b) = (on_saturating(&obs), on_linear(&obs));
+            let (a, b) = (on_saturating(&obs).unwrap(), on_linear(&obs).unwrap());
             for i in 0..ACTION_DIM {
                 let range = control_range(i);
                 let (want, got) = (

@@ -1,6 +1,7 @@
 //! The one shape every algorithm has, so one training loop drives PPO, SAC and TD3.
 
 use crate::demonstrations::Demonstration;
+use crate::policy_chain::Step;
 use foosball_nets::{Scalar, Snapshot, SnapshotError};
 use std::path::Path;
 
@@ -187,5 +188,11 @@ pub trait Agent {
     fn set_demonstrations(&mut self, episodes: &[Demonstration<'_>]) -> Result<usize, String> {
         let _ = episodes;
         Err("this algorithm learns from its own rollouts only and takes no demonstrations".into())
+    }
+    /// The deterministic policy (`act(.., ActMode::Deterministic)`) as fixed steps from
+    /// the observation to the action, as it stands, for an exporter; an error says what
+    /// the agent holds that no chain of [`Step`]s computes. By default none.
+    fn policy_chain(&self) -> Result<Vec<Step>, String> {
+        Err("this agent does not write its policy as a chain of fixed steps".into())
     }
 }

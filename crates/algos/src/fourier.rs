@@ -20,6 +20,7 @@
 use crate::agent::{ActMode, Agent, AgentError, Experience, Metrics};
 use crate::config::{ConfigError, ensure};
 use crate::demonstrations::Demonstration;
+use crate::policy_chain::Step;
 use foosball_nets::{Snapshot, SnapshotError};
 use serde::{Deserialize, Serialize};
 use std::f32::consts::PI;
@@ -79,13 +80,18 @@ impl FourierConfig {
 
     /// The sin/cos features of one value, `2 K` of them, appended to `out`.
     fn encode(&self, x: f32, out: &mut Vec<f32>) {
-        let mut f = PI * self.scale;
-        for _ in 0..self.frequencies {
+        for f in self.angular_frequencies() {
             let (sin, cos) = (f * x).sin_cos();
             out.push(sin);
             out.push(cos);
-            f *= 2.0;
         }
+    }
+
+    /// `pi s 2^k` for `k` = 0..K, radians per unit of the value (each the one before
+    /// doubled, in f32).
+    fn angular_frequencies(&self) -> impl Iterator<Item = f32> {
+        std::iter::successors(Some(PI * self.scale), |f| Some(f * 2.0))
+            .take(self.frequencies as usize)
     }
 
     /// Whether each of `width` values is encoded.
@@ -169,6 +175,20 @@ impl Agent for FourierFeatures {
 
     fn seed_sampling(&mut self, seed: u64) {
         self.inner.seed_sampling(seed);
+    }
+
+    /// [`Step::Fourier`] ahead of the inner agent's chain.
+    fn policy_chain(&self) -> Result<Vec<Step>, String> {
+        let frequencies = self.config.angular_frequencies().collect();
+        let mut chain = self.inner.policy_chain()?;
+        chain.insert(
+            0,
+            Step::Fourier {
+                encoded: self.encoded.clone(),
+                frequencies,
+            },
+        );
+        Ok(chain)
     }
 
     fn observe(&mut self, step: &Experience<'_>) {

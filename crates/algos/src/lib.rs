@@ -8,8 +8,9 @@
 //! episode's steps (`correlated_noise`: PPO's `noise_correlation`, TD3's
 //! `action_noise_correlation`), PPO's self-imitation of its own past episodes
 //! (`self_imitation`), PPO's cloning term towards a teacher's labels of its own states
-//! (`kickstart`), and the [`Agent`] shape through which one training loop
-//! drives all three.
+//! (`kickstart`), the [`Agent`] shape through which one training loop
+//! drives all three, and the deterministic policy as fixed steps for an exporter
+//! (`policy_chain`).
 //!
 //! Each algorithm file states its update equations at the top (CleanRL style); the
 //! networks and Adam live in `foosball-nets`, the environments in `foosball-env`.
@@ -26,6 +27,7 @@ pub mod network_path;
 pub mod normalize;
 pub mod off_policy;
 pub mod plane_store;
+pub mod policy_chain;
 pub mod ppo;
 pub mod ppo_networks;
 pub mod replay;
@@ -49,6 +51,7 @@ pub use demonstrations::Demonstration;
 pub use fourier::{FourierConfig, FourierFeatures};
 pub use kickstart::KickstartConfig;
 pub use normalize::{NormalizeConfig, Normalized};
+pub use policy_chain::Step;
 pub use ppo::{Ppo, PpoConfig};
 pub use replay::{ReplayBatch, ReplayBuffer};
 pub use rollout::{

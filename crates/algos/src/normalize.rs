@@ -26,6 +26,7 @@
 use crate::agent::{ActMode, Agent, AgentError, Experience, Metrics};
 use crate::config::{ConfigError, ensure};
 use crate::demonstrations::Demonstration;
+use crate::policy_chain::Step;
 use foosball_nets::{Snapshot, SnapshotError};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -284,6 +285,22 @@ impl Agent for Normalized {
 
     fn seed_sampling(&mut self, seed: u64) {
         self.inner.seed_sampling(seed);
+    }
+
+    /// The inner agent's chain behind [`Step::Standardize`] with the moments as they
+    /// stand (none where observations are not normalised).
+    fn policy_chain(&self) -> Result<Vec<Step>, String> {
+        let mut chain = self.inner.policy_chain()?;
+        if self.config.obs {
+            let eps = self.config.epsilon;
+            let standardize = Step::Standardize {
+                mean: self.obs.mean.clone(),
+                scale: self.obs.var.iter().map(|v| (v + eps).sqrt()).collect(),
+                clip: self.config.clip_obs,
+            };
+            chain.insert(0, standardize);
+        }
+        Ok(chain)
     }
 
     /// The observations acted on are normalised again with the moments `act` used (only

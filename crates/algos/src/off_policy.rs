@@ -8,6 +8,7 @@
 use crate::agent::{ActMode, Agent, AgentError, Experience, Metrics};
 use crate::config::OffPolicyConfig;
 use crate::demonstrations::{Demonstration, demonstration_buffer};
+use crate::policy_chain::Step;
 use crate::replay::{ReplayBatch, ReplayBuffer};
 use crate::schedule::LrSchedule;
 use foosball_nets::{ObsShape, Snapshot, SnapshotError};
@@ -38,6 +39,10 @@ pub trait OffPolicyLearner {
     fn save_state<'a>(&'a self, snap: &mut Snapshot<'a>);
     /// Restores what `save_state` stored.
     fn load_state(&mut self, snap: &Snapshot<'_>) -> Result<(), SnapshotError>;
+    /// See [`Agent::policy_chain`]; none by default.
+    fn policy_chain(&self) -> Result<Vec<Step>, String> {
+        Err("this learner does not write its policy as a chain of fixed steps".into())
+    }
 }
 
 /// An off-policy agent: a learner plus its replay buffer and schedule.
@@ -244,6 +249,10 @@ impl<L: OffPolicyLearner> Agent for OffPolicy<L> {
 
     fn zero_obs_inputs(&mut self, inputs: &[usize]) -> Result<(), String> {
         self.learner.zero_obs_inputs(inputs)
+    }
+
+    fn policy_chain(&self) -> Result<Vec<Step>, String> {
+        self.learner.policy_chain()
     }
 
     fn save_state<'a>(&'a self, snap: &mut Snapshot<'a>) {

@@ -35,6 +35,7 @@ use crate::demo_cloning::{DemoBatch, DemoCloningConfig, DemoRows};
 use crate::demonstrations::Demonstration;
 use crate::kickstart::{KickstartConfig, cloning_loss};
 use crate::network_path::OnPath;
+use crate::policy_chain::Step;
 pub use crate::ppo_networks::ActorCritic;
 use crate::ppo_networks::{BurnNetworks, Evaluation, HostNetworks, PpoNetworks};
 use crate::rollout_buffer::{RolloutBuffer, gae};
@@ -766,6 +767,18 @@ impl Agent for Ppo {
                 path: dir.to_path_buf(),
                 message,
             })
+    }
+
+    /// The Gaussian's mean, clamped to `[-1, 1]`.
+    fn policy_chain(&self) -> Result<Vec<Step>, String> {
+        let mlp = self.model().policy.to_host()?.mlp;
+        Ok(vec![
+            Step::Mlp(mlp),
+            Step::Clamp {
+                min: -1.0,
+                max: 1.0,
+            },
+        ])
     }
 
     fn zero_obs_inputs(&mut self, inputs: &[usize]) -> Result<(), String> {

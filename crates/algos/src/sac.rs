@@ -26,6 +26,7 @@ use crate::config::{ConfigError, DEFAULT_GAMMA, NetConfig, OffPolicyConfig, chec
 use crate::critics::{Critics, Walk};
 use crate::network_path::OnPath;
 use crate::off_policy::{OffPolicy, OffPolicyLearner};
+use crate::policy_chain::Step;
 use crate::replay::ReplayBatch;
 use crate::rows::{Rows, bellman};
 use crate::sac_networks::{
@@ -382,6 +383,19 @@ impl OffPolicyLearner for Sac {
 
     fn save(&self, dir: &Path) -> Result<(), AgentError> {
         self.modules().save(dir)
+    }
+
+    /// `tanh` of the mean half of the actor's output (the averaged actor where kept:
+    /// what acts deterministically).
+    fn policy_chain(&self) -> Result<Vec<Step>, String> {
+        let modules = self.modules();
+        let actor = modules.actor_average.as_ref().unwrap_or(&modules.actor);
+        let mlp = actor.to_host()?.mlp;
+        Ok(vec![
+            Step::Mlp(mlp),
+            Step::First(self.action_dim),
+            Step::Tanh,
+        ])
     }
 
     fn zero_obs_inputs(&mut self, inputs: &[usize]) -> Result<(), String> {

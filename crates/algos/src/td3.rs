@@ -25,6 +25,7 @@ use crate::correlated_noise::CorrelatedNoise;
 use crate::critics::{Critics, Walk};
 use crate::network_path::OnPath;
 use crate::off_policy::{OffPolicy, OffPolicyLearner};
+use crate::policy_chain::Step;
 use crate::replay::ReplayBatch;
 use crate::rows::{Rows, bellman};
 use crate::td3_networks::{BurnNetworks, HostNetworks, Modules, Td3Networks};
@@ -352,6 +353,12 @@ impl OffPolicyLearner for Td3 {
 
     fn save(&self, dir: &Path) -> Result<(), AgentError> {
         self.modules().save(dir)
+    }
+
+    /// `tanh` of the actor's output.
+    fn policy_chain(&self) -> Result<Vec<Step>, String> {
+        let mlp = self.modules().actor.to_host()?.mlp;
+        Ok(vec![Step::Mlp(mlp), Step::Tanh])
     }
 
     fn zero_obs_inputs(&mut self, inputs: &[usize]) -> Result<(), String> {

@@ -198,6 +198,11 @@ impl HostMlp {
         &self.widths
     }
 
+    /// The non-linearity after every hidden layer.
+    pub fn activation(&self) -> Activation {
+        self.activation
+    }
+
     /// Width of the input layer.
     pub fn input_dim(&self) -> usize {
         self.widths[0]
@@ -224,8 +229,9 @@ impl HostMlp {
         start..start + layer_len(&self.widths[l..l + 2])
     }
 
-    /// Layer `l`'s `(W, b)`.
-    fn layer(&self, l: usize) -> (&[f32], &[f32]) {
+    /// Layer `l`'s `(W, b)`: `W` `[widths[l], widths[l + 1]]` row-major, `b`
+    /// `[widths[l + 1]]`.
+    pub fn layer(&self, l: usize) -> (&[f32], &[f32]) {
         let d_in_out = self.widths[l] * self.widths[l + 1];
         self.params[self.layer_range(l)].split_at(d_in_out)
     }
