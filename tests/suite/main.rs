@@ -24,6 +24,7 @@ mod evaluation;
 mod foosball_env;
 mod image_obs;
 mod league;
+mod league_page;
 mod learning;
 mod learning_foosball;
 mod learning_images;
