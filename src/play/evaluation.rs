@@ -39,9 +39,7 @@ impl From<EnvError> for PlayError {
     }
 }
 
-/// Deterministic episodes played side by side in evaluations and tests (part of the
-/// protocol: it fixes the policy's batch shape).
-pub const EVAL_BATCH: usize = 10;
+pub use foosball_env::test_metrics::EVAL_BATCH;
 
 /// One episode played to its end.
 #[derive(Clone, Debug, PartialEq)]
@@ -75,14 +73,7 @@ impl EpisodeLog<FoosballEnv> for PlayedEpisode {
     }
 
     fn record(&mut self, action: &[f32], t: &Transition<FoosballInfo>) {
-        let s = &mut self.summary;
-        s.steps += 1;
-        s.ret += f64::from(t.reward);
-        s.distance_sum += f64::from(t.info.goal_distance);
-        s.speed_sum += f64::from(t.info.ball_speed);
-        s.final_distance = f64::from(t.info.goal_distance);
-        s.scored |= t.info.scored();
-        s.end = t.info.end;
+        self.summary.add(t.reward, &t.info);
         if let Some(tr) = self.trajectory.as_mut() {
             tr.actions.extend_from_slice(action);
             tr.rewards.push(t.reward);

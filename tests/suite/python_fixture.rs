@@ -164,3 +164,58 @@ fn the_rust_env_writes_the_committed_python_fixture() {
     let committed: Fixture = serde_json::from_str(&text).unwrap();
     assert_eq!(committed, now, "the env no longer plays {FIXTURE}");
 }
+
+/// The standard test the Python front must reproduce (`crates/py/tests/test_evaluate.py`
+/// reads the same file): `evaluate`'s metrics of two policies that numpy computes with
+/// the same bits (all zeros; rods swinging by comparisons of observation values), 40
+/// episodes from the test seeds of seed 3 on `reference`.
+const TEST_FIXTURE: &str = "crates/py/tests/data/standard_test.json";
+
+#[test]
+fn the_rust_evaluate_writes_the_committed_python_test_fixture() {
+    use foosball_rl::play::evaluation::{Episodes, OwnedPolicy, play_owned};
+    use foosball_rl::play::metrics::TestMetrics;
+    use std::collections::BTreeMap;
+
+    let table = FoosballConfig::default();
+    let episodes = Episodes {
+        env: &table,
+        seed: 3,
+        stream: foosball_rl::env::seeding::TEST_ENVS,
+        n: 40,
+        record: false,
+    };
+    let zero: OwnedPolicy = Box::new(|obs: &[f32]| Ok(vec![0.0; obs.len() / 38 * ACTION_DIM]));
+    // Every rod slides to the side of the ball's x and swings its feet to the other side
+    // of where they are: the rods keep turning and kick the ball about.
+    let swing: OwnedPolicy = Box::new(|obs: &[f32]| {
+        Ok(obs
+            .chunks_exact(38)
+            .flat_map(|row| {
+                (0..4).flat_map(move |r| {
+                    let slide = if row[0] > 0.0 { 1.0 } else { -1.0 };
+                    let turn = if row[22 + r] > 0.0 { -1.0 } else { 1.0 };
+                    [slide, turn]
+                })
+            })
+            .collect())
+    });
+    let mut now = BTreeMap::new();
+    for (name, mut policy) in [("zero", zero), ("swing", swing)] {
+        let played = play_owned(&mut policy, &episodes).unwrap();
+        let summaries: Vec<_> = played.iter().map(|e| e.summary).collect();
+        now.insert(name, TestMetrics::from_episodes(&summaries));
+    }
+    let text = serde_json::to_string_pretty(&now).unwrap() + "\n";
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(TEST_FIXTURE);
+    if std::env::var_os("FOOSBALL_UPDATE_FIXTURES").is_some() {
+        std::fs::write(&path, &text).unwrap();
+    }
+    let committed = std::fs::read_to_string(&path).unwrap_or_else(|e| {
+        panic!(
+            "{}: {e} (FOOSBALL_UPDATE_FIXTURES=1 writes it)",
+            path.display()
+        )
+    });
+    assert_eq!(committed, text, "evaluate no longer gives {TEST_FIXTURE}");
+}

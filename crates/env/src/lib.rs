@@ -20,7 +20,8 @@
 //! - [`config`]: the table's settings and presets, refused by key ([`config_error`]);
 //!   [`config_file`]: a TOML file and the files it `extends`, merged.
 //! - [`geometry`] and [`layout`]: the table's numbers and the observation/action index
-//!   table; [`seeding`]: how every random stream derives from one run seed.
+//!   table; [`seeding`]: how every random stream derives from one run seed;
+//!   [`test_metrics`]: the paper's five test metrics with their intervals.
 //!
 //! Knows nothing of neural networks: observations and actions cross as flat `f32`.
 
@@ -49,6 +50,7 @@ pub mod soft_stop;
 pub mod spin;
 pub mod starts;
 pub mod table;
+pub mod test_metrics;
 pub mod vec_env;
 
 pub use config::{

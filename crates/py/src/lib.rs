@@ -8,6 +8,8 @@
 //! - [`settings`]: a [`foosball_env::FoosballConfig`] from a preset name, a TOML file and
 //!   keyword overrides, refused by dotted key.
 //! - [`episode`]: the paper's per-episode metrics, tallied as the steps go.
+//! - [`standard_test`]: the paper's 1,000-episode test of a Python policy, the same
+//!   starts, metrics and intervals as the framework's `evaluate`.
 //! - [`to_python`]: shapes, infos, metrics and frames as Python objects.
 //! - [`errors`]: the Python exceptions, and the guard that turns a Rust panic into one.
 //!
@@ -16,6 +18,7 @@
 pub mod episode;
 pub mod errors;
 pub mod settings;
+pub mod standard_test;
 pub mod table;
 pub mod to_python;
 pub mod vec_table;
@@ -40,6 +43,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
         foosball_env::EndReason::ALL.map(|e| e.name()).to_vec(),
     )?;
     m.add_function(wrap_pyfunction!(derive_seed, m)?)?;
+    m.add_function(wrap_pyfunction!(standard_test::standard_test, m)?)?;
     m.add("TRAIN_ENVS", seeding::TRAIN_ENVS)?;
     m.add("EVAL_ENVS", seeding::EVAL_ENVS)?;
     m.add("TEST_ENVS", seeding::TEST_ENVS)?;
