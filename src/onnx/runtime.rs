@@ -1,8 +1,8 @@
 //! An ONNX policy file played in pure Rust by tract: loaded once, its shapes checked
 //! against the table's (input 0 `[batch, obs_dim]`, output 0 `[batch, action_dim]`, the
-//! batch free), then run on batches of observations.
+//! batch free), then run on batches of observations; and the file's metadata (what
+//! `export` wrote into it, [`super::CONFIG_KEY`]), read without building the model.
 
-use super::CONFIG_KEY;
 use prost::Message;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -17,7 +17,6 @@ pub struct OnnxPolicy {
     plan: Arc<TypedRunnableModel>,
     obs_dim: usize,
     action_dim: usize,
-    config: Option<String>,
 }
 
 impl std::fmt::Debug for OnnxPolicy {
@@ -34,7 +33,6 @@ impl OnnxPolicy {
     pub fn load(path: &Path, obs_dim: usize, action_dim: usize) -> Result<Self, String> {
         let at = |why: String| format!("{}: {why}", path.display());
         let proto = read_proto(path)?;
-        let config = metadata(&proto, CONFIG_KEY);
         let inputs = proto.graph.as_ref().map_or(0, real_inputs);
         if inputs != 1 {
             return Err(at(format!(
@@ -59,21 +57,9 @@ impl OnnxPolicy {
             plan,
             obs_dim,
             action_dim,
-            config,
         };
         policy.act(&vec![0.0; obs_dim])?;
         Ok(policy)
-    }
-
-    /// The file it was read from.
-    pub fn path(&self) -> &Path {
-        &self.path
-    }
-
-    /// The configuration of the run it was exported from (TOML), where `export` wrote
-    /// it.
-    pub fn run_config(&self) -> Option<&str> {
-        self.config.as_deref()
     }
 
     /// Actions `[n, action_dim]` for observations `[n, obs_dim]`; an error names the file
