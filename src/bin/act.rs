@@ -14,7 +14,7 @@ use foosball_rl::config::{Checkpoint, RunConfig};
 use foosball_rl::env::ObservationKind;
 use foosball_rl::env::layout::{ACTION_DIM, OBS_DIM};
 use foosball_rl::onnx::runtime::OnnxPolicy;
-use foosball_rl::play::player::is_onnx;
+use foosball_rl::play::contestant::is_onnx;
 use foosball_rl::play::process::{format_values, parse_values};
 use std::io::{BufRead, Write};
 use std::path::PathBuf;

@@ -85,7 +85,7 @@ impl FromStr for Contestant {
                 command: command.to_string(),
             });
         }
-        if s.ends_with(".onnx") {
+        if is_onnx(Path::new(s)) {
             let path = PathBuf::from(s);
             if !path.is_file() {
                 return Err(format!("contestant `{s}`: no such ONNX file"));
@@ -370,6 +370,11 @@ pub fn exported_config(path: &Path) -> Result<Option<RunConfig>, String> {
     RunConfig::from_toml(&text, &name)
         .map(Some)
         .map_err(|e| e.to_string())
+}
+
+/// Whether `path` names an ONNX file rather than a run directory (its extension).
+pub fn is_onnx(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e == "onnx")
 }
 
 /// The last `depth` (at least one) components of `path`, joined by `/`.

@@ -2,7 +2,7 @@
 //! scripted policy, or a policy from outside (an ONNX file, a program) on a table, chosen
 //! by the same command-line options in both.
 
-use super::contestant::{Contestant, exported_config, means_the_same};
+use super::contestant::{Contestant, exported_config, is_onnx, means_the_same};
 use super::evaluation::{Episodes, PlayedEpisode, play_agent, play_owned, write_test};
 use super::metrics::TestMetrics;
 use super::scripted::{Baseline, ScriptedPolicy};
@@ -88,11 +88,6 @@ fn other_table(
         }
         (None, None) => None,
     })
-}
-
-/// Whether `path` names an ONNX file rather than a run directory.
-pub fn is_onnx(path: &Path) -> bool {
-    path.extension().is_some_and(|e| e == "onnx")
 }
 
 /// An outside `contestant`'s player: on the table of `--config` or `--preset`, else of
