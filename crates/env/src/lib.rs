@@ -15,8 +15,8 @@
 //! - [`soft_contact`] and [`soft_stop`]: MuJoCo's soft constraints (the ball on the men,
 //!   the bumpers on the walls); [`man_field`], [`man_octree`] and [`sdf_search`]: the
 //!   reference man's distance field (its plugin's own octree, or sampled) and MuJoCo's
-//!   contact search on it; [`servo`]: the rods' position
-//!   servos.
+//!   contact search on it; [`carried_shape`]: a rod's colliders there, carrying its mass
+//!   alone; [`servo`]: the rods' position servos.
 //! - [`config`]: the table's settings and presets, refused by key ([`config_error`]);
 //!   [`config_file`]: a TOML file and the files it `extends`, merged.
 //! - [`geometry`] and [`layout`]: the table's numbers and the observation/action index
@@ -26,6 +26,7 @@
 //! Knows nothing of neural networks: observations and actions cross as flat `f32`.
 
 pub mod block;
+pub mod carried_shape;
 pub mod config;
 pub mod config_error;
 pub mod config_file;

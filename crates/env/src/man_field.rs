@@ -180,7 +180,26 @@ impl ManField {
             Shape::Octree(tree) => tree.distance(point),
         }
     }
+
+    /// Whether the man is surely clear of the ball of `radius` at `centre` (field frame,
+    /// cm): every distance [`ManField::sample`] gives in the ball's box, grown by
+    /// [`CLEARANCE_MARGIN`] against rounding, is above zero, so MuJoCo's search there finds
+    /// no contact (its contacts lie where both distances are at most zero). The octree
+    /// answers from its cells' floors; the grid never claims it.
+    pub fn clear_of(&self, centre: DVec3, radius: f64) -> bool {
+        match &self.shape {
+            Shape::Grid(_) => false,
+            Shape::Octree(tree) => {
+                let reach = DVec3::splat(radius + CLEARANCE_MARGIN);
+                tree.is_above(centre - reach, centre + reach, CLEARANCE_MARGIN)
+            }
+        }
+    }
 }
+
+/// What [`ManField::clear_of`] adds to the ball's box and asks of the distance there
+/// (cm): far above the search's rounding (1e-12 cm), far below a contact's depth.
+pub const CLEARANCE_MARGIN: f64 = 1e-4;
 
 impl Grid {
     /// Trilinear between the grid's points; off the grid, see [`ManField::sample`].
@@ -249,6 +268,43 @@ mod tests {
             }
             assert!(inside_found, "{form:?}: the box's diagonal crosses the man");
         }
+    }
+
+    /// A box the octree says is above a level has every sampled value above it, and a box
+    /// about a point inside the man is not.
+    #[test]
+    fn a_box_the_octree_puts_above_a_level_samples_above_it() {
+        let Shape::Octree(tree) = &ManField::reference(FieldForm::Octree).shape else {
+            panic!("the octree's file holds an octree");
+        };
+        let mut above = 0;
+        for n in 0..3_000 {
+            let t = f64::from(n) * 0.618_033_988_75;
+            let centre = DVec3::new(
+                4.0 * ((t * 2.3).fract() - 0.5),
+                10.0 * ((t * 3.1).fract() - 0.5),
+                16.0 * ((t * 0.7).fract() - 0.5),
+            );
+            let reach = DVec3::splat(0.5 + (t * 5.3).fract());
+            let level = (t * 1.9).fract() - 0.5;
+            if !tree.is_above(centre - reach, centre + reach, level) {
+                continue;
+            }
+            above += 1;
+            for m in 0..50 {
+                let s = f64::from(m) * 0.754_877_666;
+                let offset = DVec3::new((s * 1.1).fract(), (s * 2.7).fract(), (s * 0.3).fract());
+                let p = centre - reach + 2.0 * reach * offset;
+                assert!(tree.sample(p).0 > level, "{p:?} below {level}");
+            }
+        }
+        assert!(above > 300, "{above}");
+        let field = ManField::reference(FieldForm::Octree);
+        let inside = (0..200)
+            .map(|i| field.box_corners[0].lerp(field.box_corners[7], f64::from(i) / 200.0))
+            .find(|&p| tree.sample(p).0 < -0.2)
+            .expect("the box's diagonal crosses the man");
+        assert!(!tree.is_above(inside - 0.1, inside + 0.1, 0.0));
     }
 
     /// The distance alone is the sample's distance, bit for bit, on and off the cube.

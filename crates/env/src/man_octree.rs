@@ -37,6 +37,33 @@ pub struct Octree {
     cells: usize,
     nodes: Vec<u32>,
     coefficients: Vec<[f32; 64]>,
+    /// Per node, a value the field is above everywhere in its cell (cm): a leaf's
+    /// smallest Bernstein coefficient, an inner node's children's least.
+    floors: Vec<f64>,
+}
+
+/// The Bernstein coefficients of the tricubic `Σ a_ijk u^i v^j w^k` on the unit cube (`i`
+/// fastest in both): a convex combination of them at each point, so the least is a bound
+/// below the polynomial there.
+fn bernstein(a: &[f32; 64]) -> [f64; 64] {
+    // Power to Bernstein on [0, 1] for a cubic: b_k = Σ_{i <= k} C(k, i) / C(3, i) a_i.
+    const M: [[f64; 4]; 4] = [
+        [1.0, 0.0, 0.0, 0.0],
+        [1.0, 1.0 / 3.0, 0.0, 0.0],
+        [1.0, 2.0 / 3.0, 1.0 / 3.0, 0.0],
+        [1.0, 1.0, 1.0, 1.0],
+    ];
+    let mut b = a.map(f64::from);
+    for stride in [1, 4, 16] {
+        let mut next = [0.0; 64];
+        for (at, out) in next.iter_mut().enumerate() {
+            let k = at / stride % 4;
+            let base = at - k * stride;
+            *out = (0..4).map(|i| M[k][i] * b[base + i * stride]).sum();
+        }
+        b = next;
+    }
+    b
 }
 
 /// `(1, t, t², t³)` and its derivative.
@@ -91,15 +118,101 @@ impl Octree {
                 })
             })
             .collect();
-        let tree = Octree {
+        let mut tree = Octree {
             low: corner,
             side,
             cells,
             nodes,
             coefficients,
+            floors: Vec::new(),
         };
         tree.check()?;
+        tree.floors = tree.node_floors();
         Ok(tree)
+    }
+
+    /// [`Octree::floors`], children before their parents (a child's index is above its
+    /// parent's, [`Octree::check`]).
+    fn node_floors(&self) -> Vec<f64> {
+        let mut floors = vec![0.0; self.nodes.len()];
+        for i in (0..self.nodes.len()).rev() {
+            let node = self.nodes[i];
+            floors[i] = if node & LEAF != 0 {
+                let b = bernstein(&self.coefficients[(node & !LEAF) as usize]);
+                b.into_iter().fold(f64::INFINITY, f64::min)
+            } else {
+                let first = node as usize;
+                floors[first..first + 8]
+                    .iter()
+                    .copied()
+                    .fold(f64::INFINITY, f64::min)
+            };
+        }
+        floors
+    }
+
+    /// Whether every distance [`Octree::sample`] gives at a point of the box `[lo, hi]`
+    /// (field frame, cm) is above `level` (cm), by the cells' floors: `true` is certain,
+    /// `false` may be wrong. Off the cube a value is the nearest point's plus a distance,
+    /// so the box is cut to the cube; a cell counts where its closed extent meets the box,
+    /// as a point on a face may be read in either cell.
+    pub fn is_above(&self, lo: DVec3, hi: DVec3, level: f64) -> bool {
+        let top = self.low + DVec3::splat(self.side);
+        let (lo, hi) = (lo.clamp(self.low, top), hi.clamp(self.low, top));
+        let cell = self.side / self.cells as f64;
+        let range = |l: f64, h: f64, low: f64| {
+            let first = ((l - low) / cell).floor().max(0.0) as usize;
+            let last = (((h - low) / cell).floor() as usize).min(self.cells - 1);
+            first..=last
+        };
+        for z in range(lo.z, hi.z, self.low.z) {
+            for y in range(lo.y, hi.y, self.low.y) {
+                for x in range(lo.x, hi.x, self.low.x) {
+                    let corner = self.low + cell * DVec3::new(x as f64, y as f64, z as f64);
+                    let node = (z * self.cells + y) * self.cells + x;
+                    if !self.node_is_above(node, corner, cell, lo, hi, level) {
+                        return false;
+                    }
+                }
+            }
+        }
+        true
+    }
+
+    /// [`Octree::is_above`] in the cell of `node`, low `corner`, `size` (cm).
+    fn node_is_above(
+        &self,
+        node: usize,
+        corner: DVec3,
+        size: f64,
+        lo: DVec3,
+        hi: DVec3,
+        level: f64,
+    ) -> bool {
+        let far = corner + DVec3::splat(size);
+        if far.cmplt(lo).any() || corner.cmpgt(hi).any() || self.floors[node] > level {
+            return true;
+        }
+        let entry = self.nodes[node];
+        if entry & LEAF != 0 {
+            return false;
+        }
+        let half = 0.5 * size;
+        (0..8).all(|child| {
+            let offset = DVec3::new(
+                (child & 1) as f64,
+                ((child >> 1) & 1) as f64,
+                ((child >> 2) & 1) as f64,
+            );
+            self.node_is_above(
+                entry as usize + child,
+                corner + half * offset,
+                half,
+                lo,
+                hi,
+                level,
+            )
+        })
     }
 
     /// Every node points inside the file, and no walk from a first cell can loop.

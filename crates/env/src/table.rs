@@ -13,6 +13,7 @@ use std::sync::OnceLock;
 
 use rapier3d::prelude::*;
 
+use crate::carried_shape::CarriedShape;
 use crate::config::{
     BallFrame, BallModel, FoosballConfig, Integrator, ManContacts, MenShape, RodMount, SlideStops,
 };
@@ -396,6 +397,12 @@ impl Table {
         }
 
         let soft = params.man_contacts != ManContacts::Rapier;
+        // The men's contacts are MuJoCo's search on the man's field: a rod's colliders carry
+        // its mass and nothing else ([`CarriedShape`]).
+        let field_search = matches!(
+            params.man_contacts,
+            ManContacts::MujocoSdf | ManContacts::MujocoOctree
+        );
         let ground = world.insert_body(RigidBodyBuilder::fixed());
         for c in table_colliders() {
             world
@@ -423,7 +430,9 @@ impl Table {
                 let body = world.insert_body(
                     RigidBodyBuilder::dynamic()
                         .pose(frame)
-                        .ccd_enabled(true)
+                        // Under the soft contacts nothing of rapier's collides with a rod:
+                        // its sweeps need not look beyond the fixed colliders.
+                        .ccd_enabled(!soft)
                         // MuJoCo's rods turn up to 0.9 rad in a step (the midfield's
                         // reversal); rapier would cap them at 0.25 pi.
                         .allow_fast_rotation(mujoco)
@@ -440,7 +449,11 @@ impl Table {
                 let colliders: Vec<ColliderHandle> =
                     rod_colliders(spec, locked, params.men_shape, params.men_restitution)
                         .into_iter()
-                        .map(|c| {
+                        .map(|mut c| {
+                            if field_search {
+                                let shape = c.shared_shape().clone();
+                                c.set_shape(SharedShape::new(CarriedShape(shape)));
+                            }
                             world
                                 .colliders
                                 .insert_with_parent(c, body, &mut world.bodies)
