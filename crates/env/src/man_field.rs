@@ -182,7 +182,7 @@ impl ManField {
     }
 
     /// Whether the man is surely clear of the ball of `radius` at `centre` (field frame,
-    /// cm): every distance [`ManField::sample`] gives in the ball's box, grown by
+    /// cm): every distance [`ManField::sample`] gives in the ball, grown by
     /// [`CLEARANCE_MARGIN`] against rounding, is above zero, so MuJoCo's search there finds
     /// no contact (its contacts lie where both distances are at most zero). The octree
     /// answers from its cells' floors; the grid never claims it.
@@ -190,8 +190,7 @@ impl ManField {
         match &self.shape {
             Shape::Grid(_) => false,
             Shape::Octree(tree) => {
-                let reach = DVec3::splat(radius + CLEARANCE_MARGIN);
-                tree.is_above(centre - reach, centre + reach, CLEARANCE_MARGIN)
+                tree.is_above_in(centre, radius + CLEARANCE_MARGIN, CLEARANCE_MARGIN)
             }
         }
     }
@@ -270,10 +269,10 @@ mod tests {
         }
     }
 
-    /// A box the octree says is above a level has every sampled value above it, and a box
-    /// about a point inside the man is not.
+    /// A ball the octree says is above a level has every sampled value above it, and a
+    /// ball about a point inside the man is not.
     #[test]
-    fn a_box_the_octree_puts_above_a_level_samples_above_it() {
+    fn a_ball_the_octree_puts_above_a_level_samples_above_it() {
         let Shape::Octree(tree) = &ManField::reference(FieldForm::Octree).shape else {
             panic!("the octree's file holds an octree");
         };
@@ -285,16 +284,16 @@ mod tests {
                 10.0 * ((t * 3.1).fract() - 0.5),
                 16.0 * ((t * 0.7).fract() - 0.5),
             );
-            let reach = DVec3::splat(0.5 + (t * 5.3).fract());
+            let radius = 0.5 + (t * 5.3).fract();
             let level = (t * 1.9).fract() - 0.5;
-            if !tree.is_above(centre - reach, centre + reach, level) {
+            if !tree.is_above_in(centre, radius, level) {
                 continue;
             }
             above += 1;
             for m in 0..50 {
                 let s = f64::from(m) * 0.754_877_666;
                 let offset = DVec3::new((s * 1.1).fract(), (s * 2.7).fract(), (s * 0.3).fract());
-                let p = centre - reach + 2.0 * reach * offset;
+                let p = centre + radius * (2.0 * offset - 1.0).clamp_length_max(1.0);
                 assert!(tree.sample(p).0 > level, "{p:?} below {level}");
             }
         }
@@ -304,7 +303,7 @@ mod tests {
             .map(|i| field.box_corners[0].lerp(field.box_corners[7], f64::from(i) / 200.0))
             .find(|&p| tree.sample(p).0 < -0.2)
             .expect("the box's diagonal crosses the man");
-        assert!(!tree.is_above(inside - 0.1, inside + 0.1, 0.0));
+        assert!(!tree.is_above_in(inside, 0.1, 0.0));
     }
 
     /// The distance alone is the sample's distance, bit for bit, on and off the cube.

@@ -151,26 +151,31 @@ impl Octree {
         floors
     }
 
-    /// Whether every distance [`Octree::sample`] gives at a point of the box `[lo, hi]`
-    /// (field frame, cm) is above `level` (cm), by the cells' floors: `true` is certain,
-    /// `false` may be wrong. Off the cube a value is the nearest point's plus a distance,
-    /// so the box is cut to the cube; a cell counts where its closed extent meets the box,
-    /// as a point on a face may be read in either cell.
-    pub fn is_above(&self, lo: DVec3, hi: DVec3, level: f64) -> bool {
+    /// Whether every distance [`Octree::sample`] gives at a point within `radius` of
+    /// `centre` (field frame, cm) is above `level` (cm), by the cells' floors: `true` is
+    /// certain, `false` may be wrong. Off the cube a value is its nearest point's plus a
+    /// distance, and the nearest points of the ball's lie within `radius` of the centre's
+    /// nearest point (the projection on a box moves two points no farther apart), so the
+    /// cells searched are those meeting that ball; a cell counts where its closed extent
+    /// meets it, as a point on a face may be read in either cell.
+    pub fn is_above_in(&self, centre: DVec3, radius: f64, level: f64) -> bool {
         let top = self.low + DVec3::splat(self.side);
-        let (lo, hi) = (lo.clamp(self.low, top), hi.clamp(self.low, top));
+        let centre = centre.clamp(self.low, top);
+        let reach = DVec3::splat(radius);
+        let (lo, hi) = ((centre - reach).max(self.low), (centre + reach).min(top));
         let cell = self.side / self.cells as f64;
         let range = |l: f64, h: f64, low: f64| {
             let first = ((l - low) / cell).floor().max(0.0) as usize;
             let last = (((h - low) / cell).floor() as usize).min(self.cells - 1);
             first..=last
         };
+        let ball = (centre, radius * radius);
         for z in range(lo.z, hi.z, self.low.z) {
             for y in range(lo.y, hi.y, self.low.y) {
                 for x in range(lo.x, hi.x, self.low.x) {
                     let corner = self.low + cell * DVec3::new(x as f64, y as f64, z as f64);
                     let node = (z * self.cells + y) * self.cells + x;
-                    if !self.node_is_above(node, corner, cell, lo, hi, level) {
+                    if !self.node_is_above(node, corner, cell, ball, level) {
                         return false;
                     }
                 }
@@ -179,18 +184,19 @@ impl Octree {
         true
     }
 
-    /// [`Octree::is_above`] in the cell of `node`, low `corner`, `size` (cm).
+    /// [`Octree::is_above_in`] in the cell of `node`, low `corner`, `size` (cm), against
+    /// the ball of centre and squared radius `ball`.
     fn node_is_above(
         &self,
         node: usize,
         corner: DVec3,
         size: f64,
-        lo: DVec3,
-        hi: DVec3,
+        ball: (DVec3, f64),
         level: f64,
     ) -> bool {
-        let far = corner + DVec3::splat(size);
-        if far.cmplt(lo).any() || corner.cmpgt(hi).any() || self.floors[node] > level {
+        let (centre, radius_squared) = ball;
+        let nearest = centre.clamp(corner, corner + DVec3::splat(size));
+        if nearest.distance_squared(centre) > radius_squared || self.floors[node] > level {
             return true;
         }
         let entry = self.nodes[node];
@@ -208,8 +214,7 @@ impl Octree {
                 entry as usize + child,
                 corner + half * offset,
                 half,
-                lo,
-                hi,
+                ball,
                 level,
             )
         })
@@ -260,8 +265,9 @@ impl Octree {
         (value + point.distance(inside), gradient)
     }
 
-    /// [`Octree::sample_with`] at a point of the cube.
-    fn sample_inside<const GRADIENT: bool>(&self, point: DVec3) -> (f64, DVec3) {
+    /// The leaf holding `point` (a point of the cube) as the plugin finds it: its
+    /// coefficients, the point's place in it (each coordinate in [0, 1)) and its side (cm).
+    fn leaf(&self, point: DVec3) -> (&[f32; 64], DVec3, f64) {
         let cell = self.side / self.cells as f64;
         let u = (point - self.low) / cell;
         // `u.floor()` without libm's call (a twentieth of the step's time): the point is in
@@ -287,7 +293,12 @@ impl Octree {
                 .into();
             size *= 0.5;
         }
-        let a = &self.coefficients[(node & !LEAF) as usize];
+        (&self.coefficients[(node & !LEAF) as usize], frac, size)
+    }
+
+    /// [`Octree::sample_with`] at a point of the cube.
+    fn sample_inside<const GRADIENT: bool>(&self, point: DVec3) -> (f64, DVec3) {
+        let (a, frac, size) = self.leaf(point);
         let ((pu, du), (pv, dv), (pw, dw)) = (powers(frac.x), powers(frac.y), powers(frac.z));
         let (mut value, mut gradient) = (0.0, DVec3::ZERO);
         for k in 0..4 {
