@@ -397,12 +397,32 @@ impl Table {
         }
 
         let soft = params.man_contacts != ManContacts::Rapier;
+        let men_contact = SoftContact {
+            friction: SoftContact::REFERENCE.friction * params.men_friction_scale,
+            ..SoftContact::REFERENCE
+        };
+        let (soft_contact, sdf_search) = match params.man_contacts {
+            ManContacts::Rapier => (None, None),
+            ManContacts::MujocoSoft => (Some(men_contact), None),
+            // The model's contacts with the model's regularisation.
+            ManContacts::MujocoSdf | ManContacts::MujocoOctree => (
+                Some(SoftContact {
+                    regularisation: Regularisation::MujocoPyramid,
+                    ..men_contact
+                }),
+                Some((
+                    SdfSearch::REFERENCE,
+                    if params.man_contacts == ManContacts::MujocoSdf {
+                        FieldForm::Grid
+                    } else {
+                        FieldForm::Octree
+                    },
+                )),
+            ),
+        };
         // The men's contacts are MuJoCo's search on the man's field: a rod's colliders carry
         // its mass and nothing else ([`CarriedShape`]).
-        let field_search = matches!(
-            params.man_contacts,
-            ManContacts::MujocoSdf | ManContacts::MujocoOctree
-        );
+        let field_search = sdf_search.is_some();
         let ground = world.insert_body(RigidBodyBuilder::fixed());
         for c in table_colliders() {
             world
@@ -587,29 +607,6 @@ impl Table {
             .colliders
             .insert_with_parent(ball_collider, ball, &mut world.bodies);
 
-        let men_contact = SoftContact {
-            friction: SoftContact::REFERENCE.friction * params.men_friction_scale,
-            ..SoftContact::REFERENCE
-        };
-        let (soft_contact, sdf_search) = match params.man_contacts {
-            ManContacts::Rapier => (None, None),
-            ManContacts::MujocoSoft => (Some(men_contact), None),
-            // The model's contacts with the model's regularisation.
-            ManContacts::MujocoSdf | ManContacts::MujocoOctree => (
-                Some(SoftContact {
-                    regularisation: Regularisation::MujocoPyramid,
-                    ..men_contact
-                }),
-                Some((
-                    SdfSearch::REFERENCE,
-                    if params.man_contacts == ManContacts::MujocoSdf {
-                        FieldForm::Grid
-                    } else {
-                        FieldForm::Octree
-                    },
-                )),
-            ),
-        };
         Self {
             world,
             ball,
