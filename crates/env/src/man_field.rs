@@ -19,7 +19,7 @@ use std::sync::OnceLock;
 
 use rapier3d::glamx::{DQuat, DVec3};
 
-use crate::man_octree::{self, Octree};
+use crate::man_octree::{self, LastLeaf, Octree};
 
 const MAGIC: &[u8; 8] = b"FOOSSDF1";
 const GRADIENT_UNIT: f64 = 1.0 / 32000.0;
@@ -166,18 +166,24 @@ impl ManField {
     /// grid or the octree's cube, the value at the nearest point of it plus the distance
     /// to it, and the gradient there (the plugin's `boxProjection`).
     pub fn sample(&self, point: DVec3) -> (f64, DVec3) {
+        self.sample_near(point, &mut LastLeaf::default())
+    }
+
+    /// [`ManField::sample`], the same bits, where `last` remembers the octree's leaf of
+    /// the previous point (a search's points cluster; [`Octree::sample_near`]).
+    pub fn sample_near(&self, point: DVec3, last: &mut LastLeaf) -> (f64, DVec3) {
         match &self.shape {
             Shape::Grid(grid) => grid.sample(point),
-            Shape::Octree(tree) => tree.sample(point),
+            Shape::Octree(tree) => tree.sample_near(point, last),
         }
     }
 
-    /// [`ManField::sample`]'s distance alone (cm), the same value bit for bit; the
+    /// [`ManField::sample_near`]'s distance alone (cm), the same value bit for bit; the
     /// octree skips its gradient's work.
-    pub fn distance(&self, point: DVec3) -> f64 {
+    pub fn distance_near(&self, point: DVec3, last: &mut LastLeaf) -> f64 {
         match &self.shape {
             Shape::Grid(grid) => grid.sample(point).0,
-            Shape::Octree(tree) => tree.distance(point),
+            Shape::Octree(tree) => tree.distance_near(point, last),
         }
     }
 
@@ -306,25 +312,83 @@ mod tests {
         assert!(!tree.is_above_in(inside, 0.1, 0.0));
     }
 
-    /// The distance alone is the sample's distance, bit for bit, on and off the cube.
+    /// The distance alone, and a sample after a remembered leaf, are the fresh sample's
+    /// bits, on and off the cube: along a walk of small and large steps (the leaf often
+    /// the last one's), and on the octree's cells' faces, where the plugin's walk sends a
+    /// place of exactly one half to the lower child (dyadic places down to the deepest
+    /// cells, each after a point just inside the upper child, which the memory then holds).
     #[test]
-    fn the_distance_alone_is_the_samples() {
+    fn a_remembered_leaf_and_the_distance_alone_give_the_samples_bits() {
+        let check = |field: &ManField, points: &mut dyn Iterator<Item = DVec3>| {
+            let (mut last, mut last_alone) = (LastLeaf::default(), LastLeaf::default());
+            let mut hits = 0;
+            for p in points {
+                let fresh = field.sample(p);
+                let before = last;
+                let near = field.sample_near(p, &mut last);
+                hits += usize::from(before == last && before != LastLeaf::default());
+                let alone = field.distance_near(p, &mut last_alone);
+                let bits = |(d, g): (f64, DVec3)| (d.to_bits(), g.to_array().map(f64::to_bits));
+                assert_eq!(bits(near), bits(fresh), "at {p:?}");
+                assert_eq!(alone.to_bits(), fresh.0.to_bits(), "at {p:?}");
+            }
+            hits
+        };
+        let walk = |scale: f64| {
+            (0..2_000).map(move |n| {
+                let t = n as f64 * 0.618_033_988_75;
+                DVec3::new(
+                    scale * (t * 1.3).sin(),
+                    scale * (t * 0.7).cos(),
+                    1.5 * scale * (t * 0.31).sin(),
+                )
+            })
+        };
         for form in [FieldForm::Octree, FieldForm::Grid] {
             let field = ManField::reference(form);
-            for n in 0..2_000 {
-                let t = n as f64 * 0.618_033_988_75;
-                let p = DVec3::new(
-                    8.0 * (t * 1.3).sin(),
-                    8.0 * (t * 0.7).cos(),
-                    12.0 * (t * 0.31).sin(),
-                );
-                assert_eq!(
-                    field.distance(p).to_bits(),
-                    field.sample(p).0.to_bits(),
-                    "{form:?}: at {p:?}"
-                );
+            check(field, &mut walk(8.0));
+            let hits = check(field, &mut walk(0.01));
+            if form == FieldForm::Octree {
+                assert!(hits > 1_000, "{hits} of 2,000 small steps in the last leaf");
             }
         }
+        let field = ManField::reference(FieldForm::Octree);
+        let Shape::Octree(tree) = &field.shape else {
+            panic!("the octree's file holds an octree");
+        };
+        // A point whose place in first cells is exactly `q` on each axis (`q` dyadic), found
+        // among the float neighbours of `low + cell q`, where one has it.
+        let (low, cell, cells) = tree.first_cells();
+        let exactly = |low: f64, q: f64| {
+            let mut p = low + cell * q;
+            for _ in 0..8 {
+                match ((p - low) / cell).total_cmp(&q) {
+                    std::cmp::Ordering::Equal => return Some(p),
+                    std::cmp::Ordering::Less => p = p.next_up(),
+                    std::cmp::Ordering::Greater => p = p.next_down(),
+                }
+            }
+            None
+        };
+        let mut ties = 0;
+        let faces: Vec<DVec3> = (0..3_000_u32)
+            .filter_map(|n| {
+                let t = f64::from(n) * 0.618_033_988_75;
+                let unit = f64::from(1_u32 << (1 + n % 6));
+                let dyadic = |f: f64| ((f * unit * cells as f64).floor() + 0.5) / unit;
+                let q = DVec3::new(dyadic((t * 1.7).fract()), dyadic((t * 2.9).fract()), 0.0);
+                let face = DVec3::new(
+                    exactly(low.x, q.x)?,
+                    exactly(low.y, q.y)?,
+                    low.z + cell * cells as f64 * (0.3 + 0.4 * (t * 0.9).fract()),
+                );
+                ties += 1;
+                Some([face + DVec3::new(cell * 1e-6, cell * 1e-6, 0.0), face])
+            })
+            .flatten()
+            .collect();
+        assert!(ties > 1_000, "{ties} points on faces");
+        check(field, &mut faces.into_iter());
     }
 
     /// Both files hold the plugin's field: at the grid's points the octree gives the

@@ -35,11 +35,29 @@ pub struct Octree {
     side: f64,
     /// Cells per side at the first depth.
     cells: usize,
+    /// Their side, `side / cells` (cm).
+    cell: f64,
     nodes: Vec<u32>,
     coefficients: Vec<[f32; 64]>,
     /// Per node, a value the field is above everywhere in its cell (cm): a leaf's
     /// smallest Bernstein coefficient, an inner node's children's least.
     floors: Vec<f64>,
+}
+
+/// The leaf a walk last ended in and the point's cell there, so that the next point of
+/// the same leaf skips the walk (a search's points cluster): the answer stays the walk's,
+/// bit for bit ([`Octree::leaf`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct LastLeaf(Option<KnownLeaf>);
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct KnownLeaf {
+    /// The leaf's coefficients' index.
+    leaf: usize,
+    /// `2^d`, the leaf `d` depths below the first cells.
+    scale: f64,
+    /// The leaf's low corner in cells of its own side (integers).
+    cell: DVec3,
 }
 
 /// The Bernstein coefficients of the tricubic `Σ a_ijk u^i v^j w^k` on the unit cube (`i`
@@ -122,6 +140,7 @@ impl Octree {
             low: corner,
             side,
             cells,
+            cell: side / cells as f64,
             nodes,
             coefficients,
             floors: Vec::new(),
@@ -163,7 +182,7 @@ impl Octree {
         let centre = centre.clamp(self.low, top);
         let reach = DVec3::splat(radius);
         let (lo, hi) = ((centre - reach).max(self.low), (centre + reach).min(top));
-        let cell = self.side / self.cells as f64;
+        let cell = self.cell;
         let range = |l: f64, h: f64, low: f64| {
             let first = ((l - low) / cell).floor().max(0.0) as usize;
             let last = (((h - low) / cell).floor() as usize).min(self.cells - 1);
@@ -244,61 +263,108 @@ impl Octree {
         Ok(())
     }
 
+    /// The cube's low corner (cm, the field's frame), the side of its first cells (cm) and
+    /// their count a side.
+    pub fn first_cells(&self) -> (DVec3, f64, usize) {
+        (self.low, self.cell, self.cells)
+    }
+
     /// The distance (cm) and the plugin's gradient (unit) at `point` (field frame, cm).
     /// Off the cube, the value at its nearest point plus the distance to it, and the
     /// gradient there (the plugin's `boxProjection`).
     pub fn sample(&self, point: DVec3) -> (f64, DVec3) {
-        self.sample_with::<true>(point)
+        self.sample_near(point, &mut LastLeaf::default())
     }
 
-    /// [`Octree::sample`]'s distance alone (cm), bit for bit, without the gradient's
-    /// work: the contact search's line search needs only this.
-    pub fn distance(&self, point: DVec3) -> f64 {
-        self.sample_with::<false>(point).0
+    /// [`Octree::sample`] where `last` holds the leaf of an earlier point (updated to
+    /// this one's): the same bits, the walk skipped when the point is in that leaf.
+    pub fn sample_near(&self, point: DVec3, last: &mut LastLeaf) -> (f64, DVec3) {
+        self.sample_with::<true>(point, last)
+    }
+
+    /// [`Octree::sample_near`]'s distance alone (cm), bit for bit, without the
+    /// gradient's work: the contact search's line search needs only this.
+    pub fn distance_near(&self, point: DVec3, last: &mut LastLeaf) -> f64 {
+        self.sample_with::<false>(point, last).0
     }
 
     /// [`Octree::sample`], its gradient computed when `GRADIENT` (else zero).
-    fn sample_with<const GRADIENT: bool>(&self, point: DVec3) -> (f64, DVec3) {
+    fn sample_with<const GRADIENT: bool>(&self, point: DVec3, last: &mut LastLeaf) -> (f64, DVec3) {
         let top = self.low + DVec3::splat(self.side * (1.0 - 1e-12));
         let inside = point.clamp(self.low, top);
-        let (value, gradient) = self.sample_inside::<GRADIENT>(inside);
+        let (value, gradient) = self.sample_inside::<GRADIENT>(inside, last);
         (value + point.distance(inside), gradient)
     }
 
     /// The leaf holding `point` (a point of the cube) as the plugin finds it: its
     /// coefficients, the point's place in it (each coordinate in [0, 1)) and its side (cm).
-    fn leaf(&self, point: DVec3) -> (&[f32; 64], DVec3, f64) {
-        let cell = self.side / self.cells as f64;
+    ///
+    /// The walk's arithmetic is exact (doubling, and taking 1 off a value in [1, 2)), so a
+    /// point's place in a leaf `d` depths down is `v - floor(v)` for `v = u 2^d`, `u` its
+    /// place in first cells, and the leaf is the one of cell `floor(v)` at that depth,
+    /// unless the walk met a tie (a place of exactly one half, which the plugin sends to
+    /// the lower child) or the clamp of the last cell: either leaves a place of 0 or 1 at
+    /// the leaf. So where `last` knows the leaf of cell `floor(v)` and no place is 0, the
+    /// walk would end there with that place: it is skipped; a walk ending with every place
+    /// strictly inside (0, 1) is remembered.
+    fn leaf(&self, point: DVec3, last: &mut LastLeaf) -> (&[f32; 64], DVec3, f64) {
+        let cell = self.cell;
         let u = (point - self.low) / cell;
         // `u.floor()` without libm's call (a twentieth of the step's time): the point is in
         // the cube, so `u` is finite and at least +0, where truncating to an integer and
         // back is the floor, the same bits.
-        let floor = |t: f64| (t as u64) as f64;
-        let first = DVec3::new(floor(u.x), floor(u.y), floor(u.z))
-            .clamp(DVec3::ZERO, DVec3::splat(self.cells as f64 - 1.0));
-        let mut frac = u - first;
+        let floor = |t: DVec3| {
+            DVec3::new(
+                (t.x as u64) as f64,
+                (t.y as u64) as f64,
+                (t.z as u64) as f64,
+            )
+        };
+        if let LastLeaf(Some(known)) = *last {
+            let v = u * known.scale;
+            let at = floor(v);
+            let frac = v - at;
+            if at == known.cell && frac.cmpgt(DVec3::ZERO).all() {
+                return (&self.coefficients[known.leaf], frac, cell / known.scale);
+            }
+        }
+        let mut at = floor(u).clamp(DVec3::ZERO, DVec3::splat(self.cells as f64 - 1.0));
+        let mut frac = u - at;
         let index = |v: f64| v as usize;
-        let mut node = self.nodes
-            [(index(first.z) * self.cells + index(first.y)) * self.cells + index(first.x)];
-        let mut size = cell;
+        let mut node =
+            self.nodes[(index(at.z) * self.cells + index(at.y)) * self.cells + index(at.x)];
+        let mut scale = 1.0;
         while node & LEAF == 0 {
             let half = |t: f64| usize::from(t > 0.5);
-            let child = half(frac.x) + 2 * half(frac.y) + 4 * half(frac.z);
-            node = self.nodes[node as usize + child];
+            let upper = [half(frac.x), half(frac.y), half(frac.z)];
+            node = self.nodes[node as usize + upper[0] + 2 * upper[1] + 4 * upper[2]];
+            at = 2.0 * at + DVec3::from(upper.map(|h| h as f64));
             // `(2 frac).fract()` without libm's `trunc` call: `2 frac` is in [0, 2) and
             // `x - 1` is exact there, so the same bits.
             frac = (2.0 * frac)
                 .to_array()
                 .map(|t| if t >= 1.0 { t - 1.0 } else { t })
                 .into();
-            size *= 0.5;
+            scale *= 2.0;
         }
-        (&self.coefficients[(node & !LEAF) as usize], frac, size)
+        let leaf = (node & !LEAF) as usize;
+        if frac.cmpgt(DVec3::ZERO).all() && frac.cmplt(DVec3::ONE).all() {
+            *last = LastLeaf(Some(KnownLeaf {
+                leaf,
+                scale,
+                cell: at,
+            }));
+        }
+        (&self.coefficients[leaf], frac, cell / scale)
     }
 
     /// [`Octree::sample_with`] at a point of the cube.
-    fn sample_inside<const GRADIENT: bool>(&self, point: DVec3) -> (f64, DVec3) {
-        let (a, frac, size) = self.leaf(point);
+    fn sample_inside<const GRADIENT: bool>(
+        &self,
+        point: DVec3,
+        last: &mut LastLeaf,
+    ) -> (f64, DVec3) {
+        let (a, frac, size) = self.leaf(point, last);
         let ((pu, du), (pv, dv), (pw, dw)) = (powers(frac.x), powers(frac.y), powers(frac.z));
         let (mut value, mut gradient) = (0.0, DVec3::ZERO);
         for k in 0..4 {

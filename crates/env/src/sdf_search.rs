@@ -12,7 +12,10 @@
 
 pub use rapier3d::glamx::{DQuat, DVec3};
 
+use std::cell::Cell;
+
 use crate::man_field::ManField;
+use crate::man_octree::LastLeaf;
 
 /// One contact of a patch, world frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -52,6 +55,8 @@ struct Pair<'a> {
     position: DVec3,
     centre: DVec3,
     radius: f64,
+    /// The octree's leaf of the last point sampled (the descents' points cluster).
+    last: Cell<LastLeaf>,
 }
 
 impl Pair<'_> {
@@ -62,7 +67,9 @@ impl Pair<'_> {
 
     /// The man's distance and gradient, the ball's, at `x` (the field's frame).
     fn distances(&self, x: DVec3) -> ((f64, DVec3), (f64, DVec3)) {
-        let man = self.field.sample(x);
+        let mut last = self.last.get();
+        let man = self.field.sample_near(x, &mut last);
+        self.last.set(last);
         let from_centre = self.ball_to(x);
         let norm = from_centre.length();
         let ball = (
@@ -83,7 +90,9 @@ impl Pair<'_> {
     /// The objective at `x` alone (the line search's), the same value as
     /// [`Pair::value_and_gradient`]'s without the gradients' work.
     fn value(&self, objective: Objective, x: DVec3) -> f64 {
-        let a = self.field.distance(x);
+        let mut last = self.last.get();
+        let a = self.field.distance_near(x, &mut last);
+        self.last.set(last);
         let b = self.ball_to(x).length() - self.radius;
         Self::combine(objective, a, b)
     }
@@ -151,6 +160,7 @@ impl SdfSearch {
             position: man_rotation * field.translation + man_position,
             centre,
             radius,
+            last: Cell::default(),
         };
         // The man's box seen from the ball (the world's axes at its centre), cut by the
         // ball's own.
