@@ -60,18 +60,34 @@ def mean_ci(values, z=1.96):
     return [m, m - z * se, m + z * se]
 
 
-def action_scale(run, env):
-    """What the gym's step multiplies the run's action by, per value: 20 under the code's
+def run_action_map(run):
+    """The action map the policy was trained under: a run's `env.action_map`; for an ONNX
+    file, the exported run's (its `foosball_rl.run_config` metadata, read where the `onnx`
+    package is installed), else the code's own map, `saturating` (the Python front's
+    `reference`, where outside entries train)."""
+    if os.path.isdir(run):
+        with open(os.path.join(run, "config.toml"), "rb") as f:
+            return tomllib.load(f).get("env", {}).get("action_map", "saturating")
+    try:
+        import onnx
+    except ImportError:
+        return "saturating"
+    for prop in onnx.load(run).metadata_props:
+        if prop.key == "foosball_rl.run_config":
+            return tomllib.loads(prop.value).get("env", {}).get("action_map", "saturating")
+    return "saturating"
+
+
+def action_scale(action_map, env):
+    """What the gym's step multiplies the policy's action by, per value: 20 under the code's
     own map (`saturating`), the control range under `linear`: the model's own `ctrlrange`
     of yellow's 8 actuators (the first 8: goalie, defence, midfield, attack, slide and turn
     each; cm of slide, rad of turn)."""
-    with open(os.path.join(run, "config.toml"), "rb") as f:
-        action_map = tomllib.load(f).get("env", {}).get("action_map", "saturating")
     if action_map == "saturating":
         return np.full(8, 20.0)
     if action_map == "linear":
         return env.model.actuator_ctrlrange[:8, 1].copy()
-    raise SystemExit(f"{run}/config.toml: env.action_map {action_map!r} is neither saturating nor linear")
+    raise SystemExit(f"env.action_map {action_map!r} is neither saturating nor linear")
 
 
 def play(env, act, seed, scale, record=None):
@@ -141,8 +157,13 @@ def summarise(episodes):
 
 
 def ours(run):
-    """The run's own test metrics as [value, low, high]."""
-    with open(os.path.join(run, "test", "metrics.json")) as f:
+    """The run's own test metrics as [value, low, high] (an ONNX file's: the `test/`
+    folder beside it, as results/outside/ keeps them); None where there is none."""
+    folder = run if os.path.isdir(run) else os.path.dirname(run)
+    path = os.path.join(folder, "test", "metrics.json")
+    if not os.path.isfile(path):
+        return None
+    with open(path) as f:
         m = json.load(f)
     out = {}
     for key in ["score_rate", "mean_goal_distance", "mean_ball_speed", "mean_return",
@@ -155,6 +176,9 @@ def ours(run):
 
 
 def table(run, theirs, mine):
+    if mine is None:
+        mine = {k: [float("nan")] * 3 for k in theirs if k not in ("episodes", "end_reasons")}
+        mine.update(episodes=0, end_reasons={})
     rows = [f"| metric | on the MuJoCo model ({theirs['episodes']} episodes) | the run's own test ({mine['episodes']}) |",
             "| --- | --- | --- |"]
     for key, label in [("score_rate", "score rate"), ("mean_goal_distance", "mean distance to goal (cm)"),
@@ -169,7 +193,9 @@ def table(run, theirs, mine):
 
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("run", help="a run directory written by train")
+    p.add_argument("run", help="a run directory written by train, or an ONNX policy file")
+    p.add_argument("--agent", help="the league's name of the agent, written into --out's JSON "
+                   "(a league reads LEAGUE/mujoco/*.json into its MuJoCo column; default RUN as given)")
     p.add_argument("--checkpoint", default="last", choices=["best", "last"])
     p.add_argument("--episodes", type=int, default=200)
     p.add_argument("--act", default="target/release/act", help="the act binary")
@@ -179,9 +205,10 @@ def main():
     p.add_argument("--seeds", help="play these episodes (comma separated) instead of 0 .. episodes - 1")
     a = p.parse_args()
     env = load_gym(os.environ["FOOSBALL_CU"])
-    act = subprocess.Popen([a.act, "--run", a.run, "--checkpoint", a.checkpoint], stdin=subprocess.PIPE,
-                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, bufsize=1)
-    scale = action_scale(a.run, env)
+    command = [a.act, "--run", a.run] + (["--checkpoint", a.checkpoint] if os.path.isdir(a.run) else [])
+    act = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                           text=True, bufsize=1)
+    scale = action_scale(run_action_map(a.run), env)
     seeds = [int(v) for v in a.seeds.split(",")] if a.seeds else range(a.episodes)
     record = [] if a.record else None
     episodes = [play(env, act, seed, scale, record) for seed in seeds]
@@ -197,7 +224,8 @@ def main():
     if a.out:
         with open(a.out, "w") as f:
             per_episode = [{k: e[k] for k in ("start", "scored", "end", "steps")} for e in episodes]
-            json.dump({"run": a.run, "checkpoint": a.checkpoint, "mujoco": theirs, "ours": mine,
+            agent = a.agent or a.run
+            json.dump({"agent": agent, "run": a.run, "checkpoint": a.checkpoint, "mujoco": theirs, "ours": mine,
                        "per_episode": per_episode}, f, indent=1)
 
 

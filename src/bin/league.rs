@@ -4,12 +4,15 @@
 //!
 //! The same command again plays only the missing matches; naming more agents adds them
 //! without replaying the pairs already played, and a larger `--matches-per-pair` adds
-//! rounds to every pair. Settings not given are the league's.
+//! rounds to every pair. Settings not given are the league's. Each agent's standard test
+//! on `reference` and on the randomised table is played once and kept
+//! ([`foosball_rl::league::domains`]).
 
 use clap::Parser;
 use foosball_rl::cli::finish;
 use foosball_rl::config::RunConfig;
 use foosball_rl::env::{FoosballConfig, Preset};
+use foosball_rl::league::domains::DomainTests;
 use foosball_rl::league::leaderboard::Leaderboard;
 use foosball_rl::league::round_robin::{League, LeagueDir};
 use foosball_rl::play::matches::{Kickoff, MatchRules};
@@ -68,6 +71,11 @@ struct Args {
     /// Matches played at once (default one per core; results do not depend on it).
     #[arg(long)]
     threads: Option<usize>,
+    /// Episodes of each agent's standard test on `reference` and `reference_randomized`
+    /// (the board's domain columns, kept in `domains.csv`: only untested agents play;
+    /// default 1000, 0 for none).
+    #[arg(long, default_value_t = 1000)]
+    test_episodes: u32,
 }
 
 fn main() -> ExitCode {
@@ -137,7 +145,17 @@ fn run(args: &Args) -> Result<String, String> {
             done as f64 / s
         );
     })?;
-    let board = Leaderboard::of(&league);
+    let mut tests = DomainTests::open(&args.out)?;
+    if args.test_episodes > 0 {
+        tests.play_missing(
+            &league.league.agents,
+            args.test_episodes,
+            |agent, domain, s| {
+                eprintln!("{agent} on {domain}: score rate {}", s.label());
+            },
+        )?;
+    }
+    let board = Leaderboard::of(&league).with_tests(&tests);
     board.write(&args.out)?;
     Ok(format!(
         "{}\nwritten to {} (leaderboard.json, leaderboard.md, heatmap.png, index.html)",

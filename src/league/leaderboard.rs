@@ -11,6 +11,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use serde::Serialize;
 
+use super::domains::{DomainScore, DomainTests, MUJOCO, TABLES};
 use super::ratings::{Game, bootstrap, fit};
 use super::round_robin::LeagueDir;
 use crate::files::write_atomic;
@@ -58,6 +59,9 @@ pub struct Standing {
     pub goal_difference: i64,
     /// Spins of its rods per minute of play ([`foosball_env::spin`]).
     pub spins_per_minute: f64,
+    /// Its standard test in each of the board's [`Leaderboard::domains`] (None: not
+    /// measured).
+    pub tests: Vec<Option<DomainScore>>,
 }
 
 /// Row agent against column agent: points share with its Wilson interval.
@@ -80,6 +84,9 @@ pub struct Leaderboard {
     pub matches_per_pair: u32,
     /// How the matches were played.
     pub rules: MatchRules,
+    /// The domains of the standings' tests ([`super::domains`]; empty for a board shown
+    /// without them).
+    pub domains: Vec<String>,
     /// Standings, best first.
     pub standings: Vec<Standing>,
     /// The agents in matrix order (the standings' order).
@@ -137,6 +144,7 @@ impl Leaderboard {
                     losses: t.losses,
                     goal_difference: t.goal_difference(),
                     spins_per_minute: t.spins_per_minute(league.league.table.agent_dt()),
+                    tests: vec![],
                 }
             })
             .collect();
@@ -163,21 +171,67 @@ impl Leaderboard {
             anchor: names[anchor].clone(),
             matches_per_pair: league.league.matches_per_pair,
             rules: league.league.rules.clone(),
+            domains: vec![],
             agents: order.iter().map(|&i| names[i].clone()).collect(),
             standings: order.iter().map(|&i| standings[i].clone()).collect(),
             matrix,
         }
     }
 
+    /// The board with each agent's standard test in every domain of `tests` (our tables,
+    /// then the MuJoCo model).
+    pub fn with_tests(mut self, tests: &DomainTests) -> Self {
+        self.domains = TABLES.iter().map(|p| p.name().to_string()).collect();
+        self.domains.push(MUJOCO.into());
+        for st in &mut self.standings {
+            st.tests = self
+                .domains
+                .iter()
+                .map(|d| tests.score(&st.agent, d).cloned())
+                .collect();
+        }
+        self
+    }
+
+    /// A domain's column heading.
+    fn domain_heading(domain: &str) -> String {
+        if domain == MUJOCO {
+            "test on the MuJoCo model".into()
+        } else {
+            format!("test on {domain}")
+        }
+    }
+
+    /// A standing's test cells.
+    fn test_cells(st: &Standing) -> Vec<String> {
+        st.tests
+            .iter()
+            .map(|t| {
+                t.as_ref()
+                    .map_or_else(|| "not measured".into(), DomainScore::label)
+            })
+            .collect()
+    }
+
     /// The standings and the matrix as markdown.
     pub fn to_markdown(&self) -> String {
+        let headings: String = self
+            .domains
+            .iter()
+            .map(|d| format!(" {} (score rate) |", Self::domain_heading(d)))
+            .collect();
         let mut s = format!(
-            "| rank | agent | rating (Elo scale, {} = 1000) | 95 % CI | rated first (resamples) | matches | W-D-L | goal difference | spins per minute |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n",
-            self.anchor
+            "| rank | agent | rating (Elo scale, {} = 1000) | 95 % CI | rated first (resamples) | matches | W-D-L | goal difference | spins per minute |{headings}\n| --- | --- | --- | --- | --- | --- | --- | --- | --- |{}\n",
+            self.anchor,
+            " --- |".repeat(self.domains.len())
         );
         for (k, st) in self.standings.iter().enumerate() {
+            let tests: String = Self::test_cells(st)
+                .iter()
+                .map(|c| format!(" {c} |"))
+                .collect();
             s += &format!(
-                "| {} | {} | {:.0} | [{:.0}, {:.0}] | {:.0} % | {} | {}-{}-{} | {:+} | {:.2} |\n",
+                "| {} | {} | {:.0} | [{:.0}, {:.0}] | {:.0} % | {} | {}-{}-{} | {:+} | {:.2} |{tests}\n",
                 k + 1,
                 st.agent,
                 st.rating,
@@ -299,8 +353,12 @@ impl Leaderboard {
                     ),
                     None => escape(&s.short),
                 };
+                let tests: String = Self::test_cells(s)
+                    .iter()
+                    .map(|c| format!("<td>{}</td>", escape(c)))
+                    .collect();
                 format!(
-                    "<tr><td>{}</td><td title=\"{}\">{name}<div class=\"about\">{}</div></td><td>{:.0}</td><td>{:.0} – {:.0}</td><td>{:.0} %</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:+}</td><td>{:.2}</td></tr>\n",
+                    "<tr><td>{}</td><td title=\"{}\">{name}<div class=\"about\">{}</div></td><td>{:.0}</td><td>{:.0} – {:.0}</td><td>{:.0} %</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:+}</td><td>{:.2}</td>{tests}</tr>\n",
                     k + 1,
                     escape(&s.agent),
                     escape(&s.about),
@@ -333,8 +391,8 @@ th.sorted::after {{ content: " ▾"; }}
 <body>
 <h1>foosball-rl leaderboard</h1>
 <p>Bradley–Terry ratings on the Elo scale ({anchor} pinned at 1000), 95 % bootstrap intervals over matches and the share of those resamples in which each agent is rated first;
-{rules} Click a heading to sort.</p>
-<table id="board"><thead><tr><th>rank</th><th>agent</th><th>rating</th><th>95 % CI</th><th>rated first</th><th>matches</th><th>wins</th><th>draws</th><th>losses</th><th>goal difference</th><th>spins per minute</th></tr></thead>
+{rules}{tests_line} Click a heading to sort.</p>
+<table id="board"><thead><tr><th>rank</th><th>agent</th><th>rating</th><th>95 % CI</th><th>rated first</th><th>matches</th><th>wins</th><th>draws</th><th>losses</th><th>goal difference</th><th>spins per minute</th>{test_headings}</tr></thead>
 <tbody>
 {rows}</tbody></table>
 <h2>Head to head</h2>
@@ -354,6 +412,19 @@ document.querySelectorAll("#board th").forEach((th, col) => th.addEventListener(
 "##,
             anchor = escape(&self.anchor),
             rules = escape(&self.rules_line()),
+            tests_line = if self.domains.is_empty() {
+                String::new()
+            } else {
+                " The test columns: each agent's standard test (score rate and its 95 % Wilson \
+                 interval) on the reference table, on the randomised table and on the paper \
+                 code's MuJoCo model where tools/transfer.py measured it."
+                    .into()
+            },
+            test_headings = self
+                .domains
+                .iter()
+                .map(|d| format!("<th>{}</th>", escape(&Self::domain_heading(d))))
+                .collect::<String>(),
         )
     }
 

@@ -2,7 +2,7 @@
 //! scripted policy, or a policy from outside (an ONNX file, a program) on a table, chosen
 //! by the same command-line options in both.
 
-use super::contestant::{Contestant, exported_config, is_onnx, means_the_same};
+use super::contestant::{Contestant, exported_config, is_onnx, means_the_same, plays_on};
 use super::evaluation::{Episodes, PlayedEpisode, play_agent, play_owned, write_test};
 use super::metrics::TestMetrics;
 use super::scripted::{Baseline, ScriptedPolicy};
@@ -235,6 +235,59 @@ impl Player {
             }
             (None, None) => Err("give --run RUN or --policy NAME".into()),
         }
+    }
+
+    /// `contestant`'s standard test on `preset`'s table against the static black: a run
+    /// on its own test seeds, keeping its observation and its action map (a map only says
+    /// how its outputs become servo targets, as a match translates them), whatever
+    /// opponent it trained against; an ONNX file or a program as `evaluate --preset`
+    /// plays it (an exported run's seeds, else seed 0's), a scripted policy on seed 0's.
+    /// A contestant with held rods plays matches only.
+    pub fn standard_test(contestant: &Contestant, preset: Preset) -> Result<Player, String> {
+        let table = FoosballConfig::preset(preset);
+        let on = PlayerArgs {
+            preset: Some(preset),
+            ..PlayerArgs::default()
+        };
+        let args = match contestant {
+            Contestant::Run {
+                dir,
+                checkpoint,
+                actions,
+            } => {
+                let mut config = RunConfig::load_run(dir).map_err(|e| e.to_string())?;
+                plays_on(&config.env, &table).map_err(|why| format!("{}: {why}", dir.display()))?;
+                config.env = FoosballConfig {
+                    observation: config.env.observation,
+                    action_map: config.env.action_map,
+                    ..table
+                };
+                return Ok(Player::Networks {
+                    dir: dir.clone(),
+                    config: Box::new(config),
+                    checkpoint: *checkpoint,
+                    actions: *actions,
+                });
+            }
+            Contestant::Scripted(policy) => PlayerArgs {
+                policy: Some(*policy),
+                ..on
+            },
+            Contestant::Onnx { path } => PlayerArgs {
+                run: Some(path.clone()),
+                ..on
+            },
+            Contestant::Process { command } => PlayerArgs {
+                process: Some(command.clone()),
+                ..on
+            },
+            Contestant::Held { .. } => {
+                return Err(format!(
+                    "{contestant}: a contestant with held rods plays matches, not the test"
+                ));
+            }
+        };
+        Player::from_args(&args)
     }
 
     /// The table it plays on.

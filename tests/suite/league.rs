@@ -195,3 +195,97 @@ fn a_match_row_records_the_preset_and_the_commit() {
             .all(|r| r.preset.is_empty() && r.commit.is_empty())
     );
 }
+
+/// The board's domain columns: each agent's standard test on `reference` is `evaluate`'s
+/// (the same episodes from the same seeds), the randomised table's is another game,
+/// the tests are kept (opened again, nothing is played) and an agent added is tested
+/// alone; a MuJoCo measurement in `mujoco/` fills its column, "not measured" elsewhere.
+#[test]
+fn the_domain_tests_are_evaluates_and_are_kept() {
+    use foosball_rl::env::Preset;
+    use foosball_rl::league::domains::{DomainTests, MUJOCO};
+    use foosball_rl::play::contestant::Contestant;
+    use foosball_rl::play::player::{Player, PlayerArgs};
+    use foosball_rl::play::scripted::ScriptedPolicy;
+
+    let dir = scratch("league-domains");
+    let mut l = LeagueDir::open(&dir, league(&["shooter", "zero"])).unwrap();
+    l.play(2, |_, _| {}).unwrap();
+    let mut tests = DomainTests::open(&dir).unwrap();
+    let mut played = vec![];
+    tests
+        .play_missing(&l.league.agents, 40, |a, d, _| {
+            played.push(format!("{a} {d}"))
+        })
+        .unwrap();
+    assert_eq!(
+        played,
+        [
+            "shooter reference",
+            "shooter reference_randomized",
+            "zero reference",
+            "zero reference_randomized"
+        ]
+    );
+    let evaluate = Player::from_args(&PlayerArgs {
+        policy: Some(ScriptedPolicy::Shooter),
+        ..PlayerArgs::default()
+    })
+    .unwrap();
+    let summaries: Vec<_> = evaluate.play(40, false).unwrap();
+    let scored = summaries.iter().filter(|e| e.summary.scored).count();
+    let shooter = tests.score("shooter", "reference").unwrap().clone();
+    assert_eq!(shooter.score_rate, scored as f64 / 40.0);
+    assert_eq!(shooter.episodes, 40);
+    // The same episodes, not only the same rate.
+    let standard = Player::standard_test(
+        &Contestant::Scripted(ScriptedPolicy::Shooter),
+        Preset::Reference,
+    )
+    .unwrap()
+    .play(40, false)
+    .unwrap();
+    let returns = |e: &[foosball_rl::play::evaluation::PlayedEpisode]| -> Vec<f64> {
+        e.iter().map(|e| e.summary.ret).collect()
+    };
+    assert_eq!(returns(&standard), returns(&summaries));
+    let randomized = Player::standard_test(
+        &Contestant::Scripted(ScriptedPolicy::Shooter),
+        Preset::ReferenceRandomized,
+    )
+    .unwrap();
+    assert_ne!(randomized.env().randomization, evaluate.env().randomization);
+
+    // Kept: opened again, nothing left to play; a new agent plays its two tests alone.
+    let mut again = DomainTests::open(&dir).unwrap();
+    assert_eq!(again.score("shooter", "reference"), Some(&shooter));
+    let mut played = vec![];
+    let agents = ["shooter".to_string(), "zero".into(), "random".into()];
+    again
+        .play_missing(&agents, 40, |a, d, _| played.push(format!("{a} {d}")))
+        .unwrap();
+    assert_eq!(played, ["random reference", "random reference_randomized"]);
+
+    // A MuJoCo measurement (tools/transfer.py's --out) fills its column.
+    std::fs::create_dir_all(dir.join("mujoco")).unwrap();
+    std::fs::write(
+        dir.join("mujoco/zero.json"),
+        r#"{"agent": "zero", "mujoco": {"episodes": 100, "score_rate": [0.0, 0.0, 0.037]}}"#,
+    )
+    .unwrap();
+    let tests = DomainTests::open(&dir).unwrap();
+    assert_eq!(tests.score("zero", MUJOCO).unwrap().episodes, 100);
+    let board = Leaderboard::of(&l).with_tests(&tests);
+    let md = board.to_markdown();
+    assert!(md.contains("| test on reference (score rate) |"), "{md}");
+    let zero = board.standings.iter().find(|s| s.agent == "zero").unwrap();
+    assert_eq!(zero.tests.len(), 3);
+    assert!(zero.tests.iter().all(Option::is_some));
+    let shooter_row = md.lines().find(|r| r.contains("| shooter |")).unwrap();
+    assert!(shooter_row.ends_with("| not measured |"), "{shooter_row}");
+
+    // A broken row is named with its file and line.
+    std::fs::write(dir.join("domains.csv"), "agent,domain\nzero,reference,x\n").unwrap();
+    let err = DomainTests::open(&dir).unwrap_err();
+    assert!(err.contains("domains.csv:2"), "{err}");
+}

@@ -3,46 +3,48 @@
 //! Every struct rejects unknown keys, and [`FoosballConfig::validate`] names the offending
 //! key (dotted path, e.g. `randomization.ball_mass_scale`) and value.
 //!
-//! A configuration starts from a [`Preset`] (`preset = "reference" | "reference_v5" | "reference_v4" |
+//! A configuration starts from a [`Preset`] (`preset = "reference" | "reference_randomized" | "reference_v5" | "reference_v4" |
 //! "reference_v3" | "reference_v2" | "paper" | "end_on_goal" | "reference_v1" |
 //! "paper_v1"`, default
 //! `reference`): keys written in the file override the preset's values, keys left out
 //! take them. The presets, with units:
 //!
-//! | key | `reference` | `reference_v5` | `reference_v4` | `reference_v3` | `reference_v2` | `paper` | `end_on_goal` | `reference_v1` | `paper_v1` |
-//! | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |
-//! | `ball_frame` (frame of every ball number, below) | joint | joint | joint | joint | joint | joint | joint | world | world |
-//! | `action_map` | saturating | saturating | saturating | saturating | saturating | saturating | saturating | linear | linear |
-//! | `slide_stops` | bumpers | bumpers | bumpers | bumpers | bumpers | bumpers | bumpers | control_range | control_range |
-//! | `ball.model` | reference | reference | reference | reference | reference | reference | reference | rolling | rolling |
-//! | `men_shape` | mesh | mesh | mesh | mesh | reference | reference | reference | box | box |
-//! | `contact_recycling` (rapier's; stale contacts at cm scale) | false | false | false | false | false | false | false | true | true |
-//! | `physics_dt` (s) | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 |
-//! | `frame_skip` (physics steps per agent step) | 1 | 1 | 1 | 1 | 1 | 5 | 5 | 1 | 5 |
-//! | `max_episode_steps` (agent steps) | 20000 (40 s) | 20000 (40 s) | 20000 (40 s) | 20000 (40 s) | 20000 (40 s) | 4000 (40 s) | 4000 (40 s) | 20000 (40 s) | 4000 (40 s) |
-//! | `rules.stagnant_steps` (agent steps at <= `stagnant_speed` = 0.5 cm/s) | 10 (20 ms) | 10 (20 ms) | 10 (20 ms) | 10 (20 ms) | 10 (20 ms) | 10 (100 ms) | 10 (100 ms) | 10 (20 ms) | 10 (100 ms) |
-//! | `rules.no_progress_steps` (agent steps without +y) | 15 (30 ms) | 15 (30 ms) | 15 (30 ms) | 15 (30 ms) | 15 (30 ms) | 15 (150 ms) | 15 (150 ms) | 15 (30 ms) | 15 (150 ms) |
-//! | `rules.end_on_goal` | false | false | false | false | false | false | true | false | false |
-//! | `rules.serve_again` (a point's end serves again, the episode goes on) | false | false | false | false | false | false | false | false | false |
-//! | `rules.possession` (ITSF's possession limits end a point) | false | false | false | false | false | false | false | false | false |
-//! | `rules.end_on_lost_ball` (a point ends when its server loses the ball) | false | false | false | false | false | false | false | false | false |
-//! | `reward.goal` (cm, in `ball_frame`) | (0, 65) | (0, 65) | (0, 65) | (0, 65) | (0, 65) | (0, 64) | (0, 64) | (0, 65) | (0, 64) |
-//! | `reward.goal_line_y` (in black's goal when y >= it) | 65 | 65 | 65 | 65 | 65 | 64 | 64 | 65 | 64 |
-//! | `reward.own_goal_line_y` (in yellow's goal when y <= -it) | 65 | 65 | 65 | 65 | 65 | 64 | 64 | 65 | 64 |
-//! | `reward.beta` | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 once | 1000 per step in goal | 1000 per step in goal |
-//! | `reward.zero_shaping_in_goal` (`alpha - d` is 0 in goal) | true | true | true | true | true | false | false | true | false |
-//! | `reward.conceded_penalty` (per step in own goal) | 1000 | 1000 | 1000 | 1000 | 1000 | 0 | 0 | 1000 | 0 |
-//! | `start.y_mean` (cm, in `ball_frame`) | 0.0 | 0.0 | 0.0 | 0.0 | 0.0 | -0.1 | -0.1 | -4.0 | -0.1 |
-//! | `integrator` (how a physics step is taken) | mujoco_euler | mujoco_euler | mujoco_euler | mujoco_euler | rapier | rapier | rapier | rapier | rapier |
-//! | `man_contacts` (the ball's contacts with the men) | mujoco_octree | mujoco_sdf | mujoco_soft | rapier | rapier | rapier | rapier | rapier | rapier |
-//! | `ball.friction` (of every ball contact) | 1.0 | 1.0 | 1.0 | 1.0 | 0.01 | 0.01 | 0.01 | 0.3 | 0.3 |
-//! | `rod_mount` | locked_axes | locked_axes | locked_axes | locked_axes | joint | joint | joint | joint | joint |
-//! | `ball.planar` (no vertical ball motion) | true | true | true | true | true | true | true | true | false |
+//! | key | `reference` | `reference_randomized` | `reference_v5` | `reference_v4` | `reference_v3` | `reference_v2` | `paper` | `end_on_goal` | `reference_v1` | `paper_v1` |
+//! | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |
+//! | `ball_frame` (frame of every ball number, below) | joint | joint | joint | joint | joint | joint | joint | joint | world | world |
+//! | `action_map` | saturating | saturating | saturating | saturating | saturating | saturating | saturating | saturating | linear | linear |
+//! | `slide_stops` | bumpers | bumpers | bumpers | bumpers | bumpers | bumpers | bumpers | bumpers | control_range | control_range |
+//! | `ball.model` | reference | reference | reference | reference | reference | reference | reference | reference | rolling | rolling |
+//! | `men_shape` | mesh | mesh | mesh | mesh | mesh | reference | reference | reference | box | box |
+//! | `contact_recycling` (rapier's; stale contacts at cm scale) | false | false | false | false | false | false | false | false | true | true |
+//! | `physics_dt` (s) | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 | 0.002 |
+//! | `frame_skip` (physics steps per agent step) | 1 | 1 | 1 | 1 | 1 | 1 | 5 | 5 | 1 | 5 |
+//! | `max_episode_steps` (agent steps) | 20000 (40 s) | 20000 (40 s) | 20000 (40 s) | 20000 (40 s) | 20000 (40 s) | 20000 (40 s) | 4000 (40 s) | 4000 (40 s) | 20000 (40 s) | 4000 (40 s) |
+//! | `rules.stagnant_steps` (agent steps at <= `stagnant_speed` = 0.5 cm/s) | 10 (20 ms) | 10 (20 ms) | 10 (20 ms) | 10 (20 ms) | 10 (20 ms) | 10 (20 ms) | 10 (100 ms) | 10 (100 ms) | 10 (20 ms) | 10 (100 ms) |
+//! | `rules.no_progress_steps` (agent steps without +y) | 15 (30 ms) | 15 (30 ms) | 15 (30 ms) | 15 (30 ms) | 15 (30 ms) | 15 (30 ms) | 15 (150 ms) | 15 (150 ms) | 15 (30 ms) | 15 (150 ms) |
+//! | `rules.end_on_goal` | false | false | false | false | false | false | false | true | false | false |
+//! | `rules.serve_again` (a point's end serves again, the episode goes on) | false | false | false | false | false | false | false | false | false | false |
+//! | `rules.possession` (ITSF's possession limits end a point) | false | false | false | false | false | false | false | false | false | false |
+//! | `rules.end_on_lost_ball` (a point ends when its server loses the ball) | false | false | false | false | false | false | false | false | false | false |
+//! | `reward.goal` (cm, in `ball_frame`) | (0, 65) | (0, 65) | (0, 65) | (0, 65) | (0, 65) | (0, 65) | (0, 64) | (0, 64) | (0, 65) | (0, 64) |
+//! | `reward.goal_line_y` (in black's goal when y >= it) | 65 | 65 | 65 | 65 | 65 | 65 | 64 | 64 | 65 | 64 |
+//! | `reward.own_goal_line_y` (in yellow's goal when y <= -it) | 65 | 65 | 65 | 65 | 65 | 65 | 64 | 64 | 65 | 64 |
+//! | `reward.beta` | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 per step in goal | 1000 once | 1000 per step in goal | 1000 per step in goal |
+//! | `reward.zero_shaping_in_goal` (`alpha - d` is 0 in goal) | true | true | true | true | true | true | false | false | true | false |
+//! | `reward.conceded_penalty` (per step in own goal) | 1000 | 1000 | 1000 | 1000 | 1000 | 1000 | 0 | 0 | 1000 | 0 |
+//! | `start.y_mean` (cm, in `ball_frame`) | 0.0 | 0.0 | 0.0 | 0.0 | 0.0 | 0.0 | -0.1 | -0.1 | -4.0 | -0.1 |
+//! | `integrator` (how a physics step is taken) | mujoco_euler | mujoco_euler | mujoco_euler | mujoco_euler | mujoco_euler | rapier | rapier | rapier | rapier | rapier |
+//! | `man_contacts` (the ball's contacts with the men) | mujoco_octree | mujoco_octree | mujoco_sdf | mujoco_soft | rapier | rapier | rapier | rapier | rapier | rapier |
+//! | `ball.friction` (of every ball contact) | 1.0 | 1.0 | 1.0 | 1.0 | 1.0 | 0.01 | 0.01 | 0.01 | 0.3 | 0.3 |
+//! | `rod_mount` | locked_axes | locked_axes | locked_axes | locked_axes | locked_axes | joint | joint | joint | joint | joint |
+//! | `ball.planar` (no vertical ball motion) | true | true | true | true | true | true | true | true | true | false |
+//! | `randomization` (drawn each episode) | none | ball mass x 0.8-1.2, friction x 0.7-1.3, restitution x 0.5-1.5, servo gains x 0.85-1.15 | none | none | none | none | none | none | none | none |
 //!
 //! `reference` is the paper's code (Foosball_CU v2 gym and its MuJoCo model), its rods
 //! moved step by step as MuJoCo moves them and the ball's contacts with the men found and
 //! made as MuJoCo finds and makes them (its SDF search on the model's own octree of the
-//! man, soft contacts); `reference_v5` is the same game with the man's field sampled every
+//! man, soft contacts); `reference_randomized` is that game on a table whose ball and
+//! servos are drawn anew each episode (the leaderboard's second domain); `reference_v5` is the same game with the man's field sampled every
 //! 0.1 cm; `reference_v4` is the same game with one soft contact per man on our men's
 //! colliders, `reference_v3` the same game with rapier's rigid contacts between the ball
 //! and the men (both kept so that the runs made on them still replay);
@@ -80,6 +82,12 @@ pub enum Preset {
     /// figures.
     #[default]
     Reference,
+    /// `reference` on a randomised table: every episode draws the ball's mass (x
+    /// 0.8-1.2), friction (x 0.7-1.3) and restitution (x 0.5-1.5) and the servos' gains
+    /// (x 0.85-1.15) anew ([`Randomization`]; the ranges of this project's randomised
+    /// training, `configs/ppo-study/*-randomized.toml`). The leaderboard's second domain:
+    /// a policy that scores here does not lean on the model's exact numbers.
+    ReferenceRandomized,
     /// The fifth `reference` of this project: the same game with the man's field sampled
     /// every 0.1 cm ([`ManContacts::MujocoSdf`]), whose contacts' normals stray from the
     /// model's by 2.4 degrees (median; 12 at one pose in ten) and whose kicks part from the
@@ -119,8 +127,9 @@ pub enum Preset {
 
 impl Preset {
     /// Every preset, in documentation order.
-    pub const ALL: [Preset; 9] = [
+    pub const ALL: [Preset; 10] = [
         Preset::Reference,
+        Preset::ReferenceRandomized,
         Preset::ReferenceV5,
         Preset::ReferenceV4,
         Preset::ReferenceV3,
@@ -135,6 +144,7 @@ impl Preset {
     pub fn name(self) -> &'static str {
         match self {
             Preset::Reference => "reference",
+            Preset::ReferenceRandomized => "reference_randomized",
             Preset::ReferenceV5 => "reference_v5",
             Preset::ReferenceV4 => "reference_v4",
             Preset::ReferenceV3 => "reference_v3",
@@ -313,6 +323,17 @@ impl FoosballConfig {
                 preset,
                 man_contacts: ManContacts::MujocoOctree,
                 ..Self::preset(Preset::ReferenceV5)
+            },
+            Preset::ReferenceRandomized => Self {
+                preset,
+                randomization: Randomization {
+                    ball_mass_scale: [0.8, 1.2],
+                    ball_friction_scale: [0.7, 1.3],
+                    ball_restitution_scale: [0.5, 1.5],
+                    servo_gain_scale: [0.85, 1.15],
+                    ..Randomization::default()
+                },
+                ..Self::preset(Preset::Reference)
             },
             Preset::ReferenceV5 => Self {
                 preset,
