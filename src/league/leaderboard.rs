@@ -39,7 +39,8 @@ pub struct Standing {
     pub short: String,
     /// What it is, in one line ([`Contestant::about`]).
     pub about: String,
-    /// Its run directory, as named (none for a scripted policy).
+    /// Its run directory as named, or its ONNX file's folder ([`Contestant::home`]; none
+    /// for a scripted policy or a program): where the page links it.
     pub run: Option<PathBuf>,
     /// Bradley-Terry rating, Elo scale (the anchor at 1000).
     pub rating: f64,
@@ -134,7 +135,7 @@ impl Leaderboard {
                     agent: names[i].clone(),
                     short: shorts[i].clone(),
                     about: c.map_or_else(|| "?".into(), Contestant::about),
-                    run: c.and_then(Contestant::run_dir).map(Path::to_path_buf),
+                    run: c.and_then(Contestant::home).map(Path::to_path_buf),
                     rating: ratings[i],
                     ci95: boot.ci95[i],
                     rated_first: boot.first[i],

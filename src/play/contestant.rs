@@ -231,6 +231,16 @@ impl Contestant {
         }
     }
 
+    /// The folder a page links it to: a run's directory, the folder of an ONNX file
+    /// (where an outside entry keeps how it was trained and its test); none for a
+    /// scripted policy or a program.
+    pub fn home(&self) -> Option<&Path> {
+        match self {
+            Contestant::Onnx { path } => path.parent(),
+            other => other.run_dir(),
+        }
+    }
+
     /// A short name for tables: a scripted policy's name; a run's last `depth` path
     /// components, `@best` and `~sampled` after them where they apply (the last networks,
     /// deterministic, being the default); `+hold=...` as in its full name.

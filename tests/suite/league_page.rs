@@ -154,6 +154,14 @@ fn the_committed_board_loads_sorts_and_links_in_a_browser() {
 }
 
 #[test]
+fn the_outside_board_loads_sorts_and_links_in_a_browser() {
+    let Some(browser) = chromium() else { return };
+    let page = Path::new(env!("CARGO_MANIFEST_DIR")).join("results/league/outside-v2/index.html");
+    // 2 runs, the 3 outside entries' folders and the heatmap.
+    assert_eq!(check(&browser, &page, "league-page-outside-v2"), 6);
+}
+
+#[test]
 fn a_board_with_a_run_and_an_onnx_entry_loads_sorts_and_links_in_a_browser() {
     let Some(browser) = chromium() else { return };
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -197,13 +205,13 @@ fn a_board_with_a_run_and_an_onnx_entry_loads_sorts_and_links_in_a_browser() {
         "{}",
         onnx_row.about
     );
-    // The run's link and the heatmap.
+    // The run's link, the ONNX file's folder and the heatmap.
     assert_eq!(
         check(
             &browser,
             &board_dir.join("index.html"),
             "league-page-fresh-browse"
         ),
-        2
+        3
     );
 }
