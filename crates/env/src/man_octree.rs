@@ -63,7 +63,7 @@ struct KnownLeaf {
 /// The Bernstein coefficients of the tricubic `Σ a_ijk u^i v^j w^k` on the unit cube (`i`
 /// fastest in both): a convex combination of them at each point, so the least is a bound
 /// below the polynomial there.
-fn bernstein(a: &[f32; 64]) -> [f64; 64] {
+fn bernstein(a: &[f64; 64]) -> [f64; 64] {
     // Power to Bernstein on [0, 1] for a cubic: b_k = Σ_{i <= k} C(k, i) / C(3, i) a_i.
     const M: [[f64; 4]; 4] = [
         [1.0, 0.0, 0.0, 0.0],
@@ -71,13 +71,40 @@ fn bernstein(a: &[f32; 64]) -> [f64; 64] {
         [1.0, 2.0 / 3.0, 1.0 / 3.0, 0.0],
         [1.0, 1.0, 1.0, 1.0],
     ];
-    let mut b = a.map(f64::from);
-    for stride in [1, 4, 16] {
+    along_each_axis(*a, |_| M)
+}
+
+/// The tricubic's power coefficients after `u = lo + (hi - lo) t` on each axis: the same
+/// polynomial over the box `[lo, hi]` of the unit cube, read on `t` in the unit cube.
+fn restricted(a: &[f32; 64], lo: DVec3, hi: DVec3) -> [f64; 64] {
+    // (lo + d t)^i = Σ_k C(i, k) lo^(i-k) d^k t^k: row k, column i.
+    const C: [[f64; 4]; 4] = [
+        [1.0, 1.0, 1.0, 1.0],
+        [0.0, 1.0, 2.0, 3.0],
+        [0.0, 0.0, 1.0, 3.0],
+        [0.0, 0.0, 0.0, 1.0],
+    ];
+    let (lo, d) = (lo.to_array(), (hi - lo).to_array());
+    along_each_axis(a.map(f64::from), |axis| {
+        let mut m = [[0.0; 4]; 4];
+        for (k, row) in m.iter_mut().enumerate() {
+            for (i, out) in row.iter_mut().enumerate().skip(k) {
+                *out = C[k][i] * lo[axis].powi((i - k) as i32) * d[axis].powi(k as i32);
+            }
+        }
+        m
+    })
+}
+
+/// `b` with the 4 x 4 matrix `matrix(axis)` applied along each axis in turn (`i` fastest).
+fn along_each_axis(mut b: [f64; 64], matrix: impl Fn(usize) -> [[f64; 4]; 4]) -> [f64; 64] {
+    for (axis, stride) in [1, 4, 16].into_iter().enumerate() {
+        let m = matrix(axis);
         let mut next = [0.0; 64];
         for (at, out) in next.iter_mut().enumerate() {
             let k = at / stride % 4;
             let base = at - k * stride;
-            *out = (0..4).map(|i| M[k][i] * b[base + i * stride]).sum();
+            *out = (0..4).map(|i| m[k][i] * b[base + i * stride]).sum();
         }
         b = next;
     }
@@ -157,7 +184,7 @@ impl Octree {
         for i in (0..self.nodes.len()).rev() {
             let node = self.nodes[i];
             floors[i] = if node & LEAF != 0 {
-                let b = bernstein(&self.coefficients[(node & !LEAF) as usize]);
+                let b = bernstein(&self.coefficients[(node & !LEAF) as usize].map(f64::from));
                 b.into_iter().fold(f64::INFINITY, f64::min)
             } else {
                 let first = node as usize;
@@ -220,7 +247,16 @@ impl Octree {
         }
         let entry = self.nodes[node];
         if entry & LEAF != 0 {
-            return false;
+            // The leaf's polynomial bounded on the part of its cell in the ball's box:
+            // where the ball only grazes a cell, its floor over the whole cell is too low.
+            let reach = DVec3::splat(radius_squared.sqrt());
+            let lo = ((centre - reach - corner) / size).clamp(DVec3::ZERO, DVec3::ONE);
+            let hi = ((centre + reach - corner) / size).clamp(DVec3::ZERO, DVec3::ONE);
+            let a = &self.coefficients[(entry & !LEAF) as usize];
+            return bernstein(&restricted(a, lo, hi))
+                .into_iter()
+                .fold(f64::INFINITY, f64::min)
+                > level;
         }
         let half = 0.5 * size;
         (0..8).all(|child| {
