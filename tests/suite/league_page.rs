@@ -154,11 +154,16 @@ fn the_committed_board_loads_sorts_and_links_in_a_browser() {
 }
 
 #[test]
-fn the_outside_board_loads_sorts_and_links_in_a_browser() {
+fn the_outside_boards_load_sort_and_link_in_a_browser() {
     let Some(browser) = chromium() else { return };
-    let page = Path::new(env!("CARGO_MANIFEST_DIR")).join("results/league/outside-v2/index.html");
-    // 2 runs, the 3 outside entries' folders and the heatmap.
-    assert_eq!(check(&browser, &page, "league-page-outside-v2"), 6);
+    for board in ["outside-v2", "outside-v3"] {
+        let page = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("results/league")
+            .join(board)
+            .join("index.html");
+        // 2 runs, the 3 outside entries' folders and the heatmap.
+        assert_eq!(check(&browser, &page, &format!("league-page-{board}")), 6);
+    }
 }
 
 #[test]
