@@ -90,7 +90,39 @@ def action_scale(action_map, env):
     raise SystemExit(f"env.action_map {action_map!r} is neither saturating nor linear")
 
 
-def play(env, act, seed, scale, record=None):
+def act_policy(command):
+    """The policy of an `act` process (observations in, actions out, a line each), and the
+    process."""
+    act = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                           text=True, bufsize=1)
+
+    def policy(obs):
+        act.stdin.write(" ".join(f"{v:.7g}" for v in obs) + "\n")
+        act.stdin.flush()
+        line = act.stdout.readline()
+        if not line:
+            raise RuntimeError("act stopped answering: " + act.stderr.read())
+        return np.array([float(v) for v in line.split()], dtype=np.float64)
+
+    return policy, act
+
+
+def onnxruntime_policy(path):
+    """An ONNX file's policy played in this process by onnxruntime (the observation as
+    float32, batch of one), as a Python user plays an exported run."""
+    import onnxruntime
+
+    session = onnxruntime.InferenceSession(path)
+    name = session.get_inputs()[0].name
+
+    def policy(obs):
+        batch = np.asarray(obs, dtype=np.float32)[None]
+        return session.run(None, {name: batch})[0][0].astype(np.float64)
+
+    return policy
+
+
+def play(env, policy, seed, scale, record=None):
     """One episode: its summary (the test's per-episode quantities and its end). With
     `record` (a list), the episode is appended to it in the step-response fixture's
     schema: the start, each step's action in project units of the code's map (what the
@@ -102,12 +134,7 @@ def play(env, act, seed, scale, record=None):
         record.append({"name": f"episode {seed}", "ball": start, "actions": [], "obs": [obs.tolist()]})
     total, steps, distances, speeds, scored = 0.0, 0, [], [], False
     while True:
-        act.stdin.write(" ".join(f"{v:.7g}" for v in obs) + "\n")
-        act.stdin.flush()
-        line = act.stdout.readline()
-        if not line:
-            raise RuntimeError("act stopped answering: " + act.stderr.read())
-        action = np.array([float(v) for v in line.split()], dtype=np.float64)
+        action = policy(obs)
         obs, reward, terminated, _, _ = env.step(scale * action)
         if record is not None:
             record[-1]["actions"].append((scale * action / 20).tolist())
@@ -199,25 +226,33 @@ def main():
     p.add_argument("--checkpoint", default="last", choices=["best", "last"])
     p.add_argument("--episodes", type=int, default=200)
     p.add_argument("--act", default="target/release/act", help="the act binary")
+    p.add_argument("--onnxruntime", action="store_true",
+                   help="play the ONNX file in this process by onnxruntime instead of through act")
     p.add_argument("--out", help="write the summary as JSON here")
     p.add_argument("--record", help="write the episodes (actions and observations, the step-response "
                    "fixture's schema) as JSON here")
     p.add_argument("--seeds", help="play these episodes (comma separated) instead of 0 .. episodes - 1")
     a = p.parse_args()
     env = load_gym(os.environ["FOOSBALL_CU"])
-    command = [a.act, "--run", a.run] + (["--checkpoint", a.checkpoint] if os.path.isdir(a.run) else [])
-    act = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                           text=True, bufsize=1)
+    act = None
+    if a.onnxruntime:
+        if os.path.isdir(a.run):
+            raise SystemExit(f"--onnxruntime plays an ONNX file; {a.run} is a run directory (export it)")
+        policy = onnxruntime_policy(a.run)
+    else:
+        command = [a.act, "--run", a.run] + (["--checkpoint", a.checkpoint] if os.path.isdir(a.run) else [])
+        policy, act = act_policy(command)
     scale = action_scale(run_action_map(a.run), env)
     seeds = [int(v) for v in a.seeds.split(",")] if a.seeds else range(a.episodes)
     record = [] if a.record else None
-    episodes = [play(env, act, seed, scale, record) for seed in seeds]
+    episodes = [play(env, policy, seed, scale, record) for seed in seeds]
     if a.record:
         with open(a.record, "w") as f:
             json.dump({"what": f"{a.run} ({a.checkpoint}) on the paper code's gym, episodes {list(seeds)}",
                        "dt": float(env.model.opt.timestep), "cases": record}, f)
-    act.stdin.close()
-    act.wait()
+    if act is not None:
+        act.stdin.close()
+        act.wait()
     theirs = summarise(episodes)
     mine = ours(a.run)
     print(table(a.run, theirs, mine))
