@@ -392,15 +392,16 @@ fn exact_line_search(
 ) -> f64 {
     // An edge with r >= 0 and q >= 0 is never active for t >= 0 and has no crossing
     // after 0: left out of the walk, which then adds the same terms in the same order.
-    let live: Vec<(f64, f64, f64)> = (0..residual.len())
-        .map(|e| (residual[e], slopes[e], weight[e]))
-        .filter(|&(r, q, _)| !(r >= 0.0 && q >= 0.0))
-        .collect();
+    let live = || {
+        (0..residual.len())
+            .map(|e| (residual[e], slopes[e], weight[e]))
+            .filter(|&(r, q, _)| !(r >= 0.0 && q >= 0.0))
+    };
     let mut t = 0.0_f64;
     loop {
         // The edges active just after t, and phi'(s) = c0 + c1 s on that segment.
         let (mut c0, mut c1, mut next) = (start, curvature, f64::INFINITY);
-        for &(r, q, w) in &live {
+        for (r, q, w) in live() {
             let at = r + t * q;
             if at < 0.0 || (at == 0.0 && q < 0.0) {
                 c0 += w * r * q;
