@@ -19,7 +19,7 @@ use std::sync::OnceLock;
 
 use rapier3d::glamx::{DQuat, DVec3};
 
-use crate::man_octree::{self, LastLeaf, Octree};
+use crate::man_octree::{self, LANES, LastLeaf, Octree};
 
 const MAGIC: &[u8; 8] = b"FOOSSDF1";
 const GRADIENT_UNIT: f64 = 1.0 / 32000.0;
@@ -178,12 +178,13 @@ impl ManField {
         }
     }
 
-    /// [`ManField::sample_near`]'s distance alone (cm), the same value bit for bit; the
-    /// octree skips its gradient's work.
-    pub fn distance_near(&self, point: DVec3, last: &mut LastLeaf) -> f64 {
+    /// [`ManField::sample_near`]'s distances (cm) at [`LANES`] points, each the same bits
+    /// as alone, without the gradients' work (the octree sums them side by side,
+    /// [`Octree::distances_near`]).
+    pub fn distances_near(&self, points: &[DVec3; LANES], last: &mut LastLeaf) -> [f64; LANES] {
         match &self.shape {
-            Shape::Grid(grid) => grid.sample(point).0,
-            Shape::Octree(tree) => tree.distance_near(point, last),
+            Shape::Grid(grid) => points.map(|p| grid.sample(p).0),
+            Shape::Octree(tree) => tree.distances_near(points, last),
         }
     }
 
@@ -312,25 +313,30 @@ mod tests {
         assert!(!tree.is_above_in(inside, 0.1, 0.0));
     }
 
-    /// The distance alone, and a sample after a remembered leaf, are the fresh sample's
-    /// bits, on and off the cube: along a walk of small and large steps (the leaf often
-    /// the last one's), and on the octree's cells' faces, where the plugin's walk sends a
-    /// place of exactly one half to the lower child (dyadic places down to the deepest
-    /// cells, each after a point just inside the upper child, which the memory then holds).
+    /// The distances alone (four side by side), and a sample after a remembered leaf, are
+    /// the fresh sample's bits, on and off the cube: along a walk of small and large steps
+    /// (the leaf often the last one's), and on the octree's cells' faces, where the
+    /// plugin's walk sends a place of exactly one half to the lower child (dyadic places
+    /// down to the deepest cells, each after a point just inside the upper child, which
+    /// the memory then holds).
     #[test]
-    fn a_remembered_leaf_and_the_distance_alone_give_the_samples_bits() {
+    fn a_remembered_leaf_and_the_distances_alone_give_the_samples_bits() {
         let check = |field: &ManField, points: &mut dyn Iterator<Item = DVec3>| {
-            let (mut last, mut last_alone) = (LastLeaf::default(), LastLeaf::default());
+            let (mut last, mut last_lanes) = (LastLeaf::default(), LastLeaf::default());
             let mut hits = 0;
-            for p in points {
-                let fresh = field.sample(p);
-                let before = last;
-                let near = field.sample_near(p, &mut last);
-                hits += usize::from(before == last && before != LastLeaf::default());
-                let alone = field.distance_near(p, &mut last_alone);
-                let bits = |(d, g): (f64, DVec3)| (d.to_bits(), g.to_array().map(f64::to_bits));
-                assert_eq!(bits(near), bits(fresh), "at {p:?}");
-                assert_eq!(alone.to_bits(), fresh.0.to_bits(), "at {p:?}");
+            let points: Vec<DVec3> = points.collect();
+            for lanes in points.chunks_exact(LANES) {
+                let lanes: &[DVec3; LANES] = lanes.try_into().expect("a chunk of LANES");
+                let alone = field.distances_near(lanes, &mut last_lanes);
+                for (&p, alone) in lanes.iter().zip(alone) {
+                    let fresh = field.sample(p);
+                    let before = last;
+                    let near = field.sample_near(p, &mut last);
+                    hits += usize::from(before == last && before != LastLeaf::default());
+                    let bits = |(d, g): (f64, DVec3)| (d.to_bits(), g.to_array().map(f64::to_bits));
+                    assert_eq!(bits(near), bits(fresh), "at {p:?}");
+                    assert_eq!(alone.to_bits(), fresh.0.to_bits(), "at {p:?}");
+                }
             }
             hits
         };

@@ -46,7 +46,8 @@ pub struct Octree {
 
 /// The leaf a walk last ended in and the point's cell there, so that the next point of
 /// the same leaf skips the walk (a search's points cluster): the answer stays the walk's,
-/// bit for bit ([`Octree::leaf`]).
+/// bit for bit ([`Octree::leaf`]). (Remembering the last three or four leaves as well
+/// was measured slower: the checks cost more than the walks they spare.)
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct LastLeaf(Option<KnownLeaf>);
 
@@ -109,6 +110,61 @@ fn along_each_axis(mut b: [f64; 64], matrix: impl Fn(usize) -> [[f64; 4]; 4]) ->
         b = next;
     }
     b
+}
+
+/// Points [`Octree::distances_near`] evaluates side by side.
+pub const LANES: usize = 4;
+
+/// `Σ a_ijk u^i v^j w^k` in every lane, each summed in [`Octree::sample_inside`]'s order
+/// with its products associated as there (`((a u^i) v^j) w^k`), so each lane's bits are
+/// that function's. On x86-64 with AVX2 the lanes are one 256-bit vector.
+fn tricubic_lanes(
+    a: &[&[f32; 64]; LANES],
+    pu: &[[f64; LANES]; 4],
+    pv: &[[f64; LANES]; 4],
+    pw: &[[f64; LANES]; 4],
+) -> [f64; LANES] {
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2, the only feature the function is compiled for.
+        return unsafe { tricubic_lanes_avx2(a, pu, pv, pw) };
+    }
+    tricubic_lanes_portable(a, pu, pv, pw)
+}
+
+/// [`tricubic_lanes`] compiled for AVX2 (IEEE multiplications and additions as the
+/// portable code's: no fused operation is enabled, so the same bits).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn tricubic_lanes_avx2(
+    a: &[&[f32; 64]; LANES],
+    pu: &[[f64; LANES]; 4],
+    pv: &[[f64; LANES]; 4],
+    pw: &[[f64; LANES]; 4],
+) -> [f64; LANES] {
+    tricubic_lanes_portable(a, pu, pv, pw)
+}
+
+/// [`tricubic_lanes`] for any CPU.
+#[inline(always)]
+fn tricubic_lanes_portable(
+    a: &[&[f32; 64]; LANES],
+    pu: &[[f64; LANES]; 4],
+    pv: &[[f64; LANES]; 4],
+    pw: &[[f64; LANES]; 4],
+) -> [f64; LANES] {
+    let mut value = [0.0; LANES];
+    for (k, w) in pw.iter().enumerate() {
+        for (j, v) in pv.iter().enumerate() {
+            for (i, u) in pu.iter().enumerate() {
+                let at = i + 4 * j + 16 * k;
+                for l in 0..LANES {
+                    value[l] += f64::from(a[l][at]) * u[l] * v[l] * w[l];
+                }
+            }
+        }
+    }
+    value
 }
 
 /// `(1, t, t², t³)` and its derivative.
@@ -315,21 +371,32 @@ impl Octree {
     /// [`Octree::sample`] where `last` holds the leaf of an earlier point (updated to
     /// this one's): the same bits, the walk skipped when the point is in that leaf.
     pub fn sample_near(&self, point: DVec3, last: &mut LastLeaf) -> (f64, DVec3) {
-        self.sample_with::<true>(point, last)
-    }
-
-    /// [`Octree::sample_near`]'s distance alone (cm), bit for bit, without the
-    /// gradient's work: the contact search's line search needs only this.
-    pub fn distance_near(&self, point: DVec3, last: &mut LastLeaf) -> f64 {
-        self.sample_with::<false>(point, last).0
-    }
-
-    /// [`Octree::sample`], its gradient computed when `GRADIENT` (else zero).
-    fn sample_with<const GRADIENT: bool>(&self, point: DVec3, last: &mut LastLeaf) -> (f64, DVec3) {
         let top = self.low + DVec3::splat(self.side * (1.0 - 1e-12));
         let inside = point.clamp(self.low, top);
-        let (value, gradient) = self.sample_inside::<GRADIENT>(inside, last);
+        let (value, gradient) = self.sample_inside(inside, last);
         (value + point.distance(inside), gradient)
+    }
+
+    /// [`Octree::sample_near`]'s distances (cm) at [`LANES`] points, each the same bits as
+    /// alone, without the gradients' work:
+    /// the tricubics' sums run side by side (one vector of lanes a term), so that the
+    /// chain of 64 additions each needs is paid once for all of them. `last` is updated
+    /// point by point, as by that many calls.
+    pub fn distances_near(&self, points: &[DVec3; LANES], last: &mut LastLeaf) -> [f64; LANES] {
+        let top = self.low + DVec3::splat(self.side * (1.0 - 1e-12));
+        let inside = points.map(|p| p.clamp(self.low, top));
+        let leaves = inside.map(|p| {
+            let (a, frac, _) = self.leaf(p, last);
+            (a, frac)
+        });
+        // Per term, per lane: (1, t, t², t³) on each axis, lanes innermost.
+        let powers_of = |axis: fn(DVec3) -> f64| -> [[f64; LANES]; 4] {
+            let p: [[f64; 4]; LANES] = leaves.map(|(_, frac)| powers(axis(frac)).0);
+            core::array::from_fn(|i| core::array::from_fn(|l| p[l][i]))
+        };
+        let (pu, pv, pw) = (powers_of(|f| f.x), powers_of(|f| f.y), powers_of(|f| f.z));
+        let value = tricubic_lanes(&leaves.map(|(a, _)| a), &pu, &pv, &pw);
+        core::array::from_fn(|l| value[l] + points[l].distance(inside[l]))
     }
 
     /// The leaf holding `point` (a point of the cube) as the plugin finds it: its
@@ -347,13 +414,13 @@ impl Octree {
         let cell = self.cell;
         let u = (point - self.low) / cell;
         // `u.floor()` without libm's call (a twentieth of the step's time): the point is in
-        // the cube, so `u` is finite and at least +0, where truncating to an integer and
-        // back is the floor, the same bits.
+        // the cube, so `u` is finite, at least +0 and far below 2^63, where truncating to
+        // a signed integer (one instruction each way) and back is the floor, the same bits.
         let floor = |t: DVec3| {
             DVec3::new(
-                (t.x as u64) as f64,
-                (t.y as u64) as f64,
-                (t.z as u64) as f64,
+                (t.x as i64) as f64,
+                (t.y as i64) as f64,
+                (t.z as i64) as f64,
             )
         };
         if let LastLeaf(Some(known)) = *last {
@@ -394,12 +461,8 @@ impl Octree {
         (&self.coefficients[leaf], frac, cell / scale)
     }
 
-    /// [`Octree::sample_with`] at a point of the cube.
-    fn sample_inside<const GRADIENT: bool>(
-        &self,
-        point: DVec3,
-        last: &mut LastLeaf,
-    ) -> (f64, DVec3) {
+    /// [`Octree::sample_near`] at a point of the cube.
+    fn sample_inside(&self, point: DVec3, last: &mut LastLeaf) -> (f64, DVec3) {
         let (a, frac, size) = self.leaf(point, last);
         let ((pu, du), (pv, dv), (pw, dw)) = (powers(frac.x), powers(frac.y), powers(frac.z));
         let (mut value, mut gradient) = (0.0, DVec3::ZERO);
@@ -408,19 +471,45 @@ impl Octree {
                 for i in 0..4 {
                     let c = f64::from(a[i + 4 * j + 16 * k]);
                     value += c * pu[i] * pv[j] * pw[k];
-                    if GRADIENT {
-                        gradient += c * DVec3::new(
-                            du[i] * pv[j] * pw[k],
-                            pu[i] * dv[j] * pw[k],
-                            pu[i] * pv[j] * dw[k],
-                        );
-                    }
+                    gradient += c * DVec3::new(
+                        du[i] * pv[j] * pw[k],
+                        pu[i] * dv[j] * pw[k],
+                        pu[i] * pv[j] * dw[k],
+                    );
                 }
             }
         }
-        if !GRADIENT {
-            return (value, DVec3::ZERO);
-        }
         (value, (gradient / size).normalize_or_zero())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The vector build of the lanes' sums (where the CPU has one) gives the portable
+    /// build's bits: 200 draws of four leaves' coefficients and places.
+    #[test]
+    fn the_lanes_sums_are_the_same_bits_on_every_path() {
+        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut draw = || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..200 {
+            let leaves: [[f32; 64]; LANES] =
+                core::array::from_fn(|_| core::array::from_fn(|_| (20.0 * draw() - 10.0) as f32));
+            let places: [[f64; 3]; LANES] = core::array::from_fn(|_| [draw(), draw(), draw()]);
+            let axis = |k: usize| -> [[f64; LANES]; 4] {
+                core::array::from_fn(|i| core::array::from_fn(|l| powers(places[l][k]).0[i]))
+            };
+            let a = core::array::from_fn(|l| &leaves[l]);
+            let (pu, pv, pw) = (axis(0), axis(1), axis(2));
+            let fast = tricubic_lanes(&a, &pu, &pv, &pw);
+            let portable = tricubic_lanes_portable(&a, &pu, &pv, &pw);
+            assert_eq!(fast.map(f64::to_bits), portable.map(f64::to_bits));
+        }
     }
 }

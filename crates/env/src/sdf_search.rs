@@ -12,10 +12,8 @@
 
 pub use rapier3d::glamx::{DQuat, DVec3};
 
-use std::cell::Cell;
-
 use crate::man_field::ManField;
-use crate::man_octree::LastLeaf;
+use crate::man_octree::{LANES, LastLeaf};
 
 /// One contact of a patch, world frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -56,7 +54,7 @@ struct Pair<'a> {
     centre: DVec3,
     radius: f64,
     /// The octree's leaf of the last point sampled (the descents' points cluster).
-    last: Cell<LastLeaf>,
+    last: LastLeaf,
 }
 
 impl Pair<'_> {
@@ -66,10 +64,8 @@ impl Pair<'_> {
     }
 
     /// The man's distance and gradient, the ball's, at `x` (the field's frame).
-    fn distances(&self, x: DVec3) -> ((f64, DVec3), (f64, DVec3)) {
-        let mut last = self.last.get();
-        let man = self.field.sample_near(x, &mut last);
-        self.last.set(last);
+    fn distances(&mut self, x: DVec3) -> ((f64, DVec3), (f64, DVec3)) {
+        let man = self.field.sample_near(x, &mut self.last);
         let from_centre = self.ball_to(x);
         let norm = from_centre.length();
         let ball = (
@@ -87,18 +83,19 @@ impl Pair<'_> {
         }
     }
 
-    /// The objective at `x` alone (the line search's), the same value as
-    /// [`Pair::value_and_gradient`]'s without the gradients' work.
-    fn value(&self, objective: Objective, x: DVec3) -> f64 {
-        let mut last = self.last.get();
-        let a = self.field.distance_near(x, &mut last);
-        self.last.set(last);
-        let b = self.ball_to(x).length() - self.radius;
-        Self::combine(objective, a, b)
+    /// The objective at [`LANES`] points (the line search's trials), each the same bits
+    /// as [`Pair::value_and_gradient`]'s value there without the gradients' work (the
+    /// man's distances summed side by side, [`ManField::distances_near`]).
+    fn values(&mut self, objective: Objective, xs: &[DVec3; LANES]) -> [f64; LANES] {
+        let a = self.field.distances_near(xs, &mut self.last);
+        core::array::from_fn(|l| {
+            let b = self.ball_to(xs[l]).length() - self.radius;
+            Self::combine(objective, a[l], b)
+        })
     }
 
     /// The objective at `x` and its gradient, from one sample of each distance.
-    fn value_and_gradient(&self, objective: Objective, x: DVec3) -> (f64, DVec3) {
+    fn value_and_gradient(&mut self, objective: Objective, x: DVec3) -> (f64, DVec3) {
         let ((a, ga), (b, gb)) = self.distances(x);
         let larger = if a > b { ga } else { gb };
         let gradient = match objective {
@@ -111,7 +108,12 @@ impl Pair<'_> {
     /// MuJoCo's `stepGradient`: `steps` steps of backtracking line search (Armijo,
     /// `c = 0.1`, halving from 2 down to 1e-4), stopping early where a step does not
     /// improve (and keeping that step, as MuJoCo does). Returns the last value.
-    fn descend(&self, objective: Objective, x: &mut DVec3, steps: usize) -> f64 {
+    ///
+    /// The line search's trial points are known before any is valued (`start - alpha
+    /// gradient`, `alpha` halving), and half of its searches try eight or more, so they are
+    /// valued [`LANES`] at a time ([`Pair::values`]) and read in MuJoCo's order: the step
+    /// taken and its value are MuJoCo's; the trials past it are wasted work.
+    fn descend(&mut self, objective: Objective, x: &mut DVec3, steps: usize) -> f64 {
         let mut value = f64::MAX;
         for _ in 0..steps {
             let (start_value, gradient) = self.value_and_gradient(objective, *x);
@@ -120,13 +122,22 @@ impl Pair<'_> {
             }
             let start = *x;
             let (mut alpha, mut wolfe) = (2.0, -0.1 * 2.0 * gradient.length_squared());
-            loop {
-                alpha *= 0.5;
-                wolfe *= 0.5;
-                *x = start - alpha * gradient;
-                value = self.value(objective, *x);
-                if !(alpha > 1e-4 && value - start_value > wolfe) {
-                    break;
+            'search: loop {
+                let trials: [(f64, f64); LANES] = core::array::from_fn(|_| {
+                    alpha *= 0.5;
+                    wolfe *= 0.5;
+                    (alpha, wolfe)
+                });
+                let points = trials.map(|(alpha, _)| start - alpha * gradient);
+                let values = self.values(objective, &points);
+                for ((trial_alpha, trial_wolfe), (point, trial_value)) in
+                    trials.into_iter().zip(points.into_iter().zip(values))
+                {
+                    *x = point;
+                    value = trial_value;
+                    if !(trial_alpha > 1e-4 && value - start_value > trial_wolfe) {
+                        break 'search;
+                    }
                 }
             }
             if start_value < value {
@@ -154,13 +165,13 @@ impl SdfSearch {
         centre: DVec3,
         radius: f64,
     ) -> Vec<SdfContact> {
-        let pair = Pair {
+        let mut pair = Pair {
             field,
             rotation: man_rotation * field.rotation,
             position: man_rotation * field.translation + man_position,
             centre,
             radius,
-            last: Cell::default(),
+            last: LastLeaf::default(),
         };
         // The man's box seen from the ball (the world's axes at its centre), cut by the
         // ball's own.
