@@ -25,13 +25,20 @@
 //!   episodes are 45 % shorter and 15 % of them stagnant (the reference's 3 %: off-centre
 //!   starts that its sticky contacts push along, ours miss), and the random policy's are
 //!   stagnant 13 points more often (docs/reference-game.md, "Which contacts").
+//! - the zero policy from seven serves at a man's foot (the 7 of our first 400 serves
+//!   whose episodes outlast the stagnation rule's 10 steps, a man at rest pushing the
+//!   ball): on `reference` each lasts within 12 % of the model's own episode from the same
+//!   start, the ball's velocity after its first step within 2 cm/s of the model's
+//!   (`tests/data/zero_policy_model.json`, `tools/zero_policy_starts.py`; measured: 90-103 %
+//!   of the model's lengths, velocities within 0.4 cm/s). The model itself outlasts 10 steps in 5 of its first 400
+//!   serves, so the fixture's 10 zero-policy episodes, all of 10 steps, drew no such start.
 //!
 //! Run with `--nocapture` for the figures (the README's calibration table).
 
 use foosball_rl::env::config::{BallFrame, ManContacts};
 use foosball_rl::env::layout::{ACTION_DIM, action_turn};
 use foosball_rl::env::table::{PhysicsParams, Table};
-use foosball_rl::env::{EndReason, Env, EnvRng, FoosballConfig, FoosballEnv, Preset};
+use foosball_rl::env::{EndReason, Env, EnvRng, FoosballConfig, FoosballEnv, Preset, ResetOptions};
 use rand::{Rng, SeedableRng};
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -380,4 +387,69 @@ fn scripted_episodes_end_as_the_references() {
         }
     }
     assert!(misses.is_empty(), "{misses:#?}");
+}
+
+/// The model's zero-policy episodes from given starts (`tools/zero_policy_starts.py`).
+#[derive(Deserialize)]
+struct ZeroPolicy {
+    episodes: Vec<ZeroEpisode>,
+}
+
+#[derive(Deserialize)]
+struct ZeroEpisode {
+    /// The ball's start, joint frame (cm).
+    start: [f32; 2],
+    steps: u32,
+    /// The ball's x, y, vx, vy after each of the first steps (joint frame).
+    ball: Vec<[f64; 4]>,
+}
+
+#[test]
+fn the_zero_policy_at_a_mans_foot_lasts_as_the_models() {
+    let fixture: ZeroPolicy = serde_json::from_str(
+        &std::fs::read_to_string("tests/data/zero_policy_model.json").unwrap(),
+    )
+    .unwrap();
+    assert_eq!(fixture.episodes.len(), 7);
+    let mut env = FoosballEnv::new(reference()).unwrap();
+    let mut obs = vec![0.0; env.obs_dim()];
+    for e in &fixture.episodes {
+        let options = ResetOptions {
+            ball: Some(e.start),
+        };
+        env.reset_with(Some(0), &options, &mut obs).unwrap();
+        let (mut steps, mut first) = (0, None);
+        loop {
+            let (o, t) = env.step(&[0.0; ACTION_DIM]).unwrap();
+            steps += 1;
+            first.get_or_insert([f64::from(o[3]), f64::from(o[4])]);
+            if t.done() {
+                break;
+            }
+        }
+        let [vx, vy] = first.unwrap();
+        let theirs = e.ball[0];
+        let dv = (vx - theirs[2]).hypot(vy - theirs[3]);
+        println!(
+            "start {:?}: {steps} steps, the model's {}; first velocity off by {dv:.1} cm/s",
+            e.start, e.steps
+        );
+        assert!(
+            e.steps > 10,
+            "the model's episode from {:?} outlasts 10 steps",
+            e.start
+        );
+        let ratio = f64::from(steps) / f64::from(e.steps);
+        assert!(
+            (0.88..=1.12).contains(&ratio),
+            "{:?}: {steps} against {}",
+            e.start,
+            e.steps
+        );
+        assert!(
+            dv < 8.0,
+            "{:?}: first velocity ({vx}, {vy}) against {theirs:?}",
+            e.start
+        );
+    }
 }
