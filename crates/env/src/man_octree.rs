@@ -413,20 +413,17 @@ impl Octree {
     /// [`Octree::sample`] where `last` holds the leaf of an earlier point (updated to
     /// this one's): the same bits, the walk skipped when the point is in that leaf.
     pub fn sample_near(&self, point: DVec3, last: &mut LastLeaf) -> (f64, DVec3) {
-        let top = self.low + DVec3::splat(self.side * (1.0 - 1e-12));
-        let inside = point.clamp(self.low, top);
+        let inside = self.nearest_inside(point);
         let (value, gradient) = self.sample_inside(inside, last);
         (value + point.distance(inside), gradient)
     }
 
     /// [`Octree::sample_near`]'s distances (cm) at [`LANES`] points, each the same bits as
-    /// alone, without the gradients' work:
-    /// the tricubics' sums run side by side (one vector of lanes a term), so that the
-    /// chain of 64 additions each needs is paid once for all of them. `last` is updated
-    /// point by point, as by that many calls.
+    /// alone, without the gradients' work: the tricubics' sums run side by side (one
+    /// vector of lanes a term), so that the chain of 64 additions each needs is paid once
+    /// for all of them. `last` is updated point by point, as by that many calls.
     pub fn distances_near(&self, points: &[DVec3; LANES], last: &mut LastLeaf) -> [f64; LANES] {
-        let top = self.low + DVec3::splat(self.side * (1.0 - 1e-12));
-        let inside = points.map(|p| p.clamp(self.low, top));
+        let inside = points.map(|p| self.nearest_inside(p));
         let leaves = inside.map(|p| {
             let (a, frac, _) = self.leaf(p, last);
             (a, frac)
@@ -439,6 +436,13 @@ impl Octree {
         let (pu, pv, pw) = (powers_of(|f| f.x), powers_of(|f| f.y), powers_of(|f| f.z));
         let value = tricubic_lanes(&leaves.map(|(a, _)| a), &pu, &pv, &pw);
         core::array::from_fn(|l| value[l] + points[l].distance(inside[l]))
+    }
+
+    /// The point of the cube nearest `point` (the plugin's `boxProjection`), kept off the
+    /// top faces so that the walk stays in the last cells.
+    fn nearest_inside(&self, point: DVec3) -> DVec3 {
+        let top = self.low + DVec3::splat(self.side * (1.0 - 1e-12));
+        point.clamp(self.low, top)
     }
 
     /// The leaf holding `point` (a point of the cube) as the plugin finds it: its
@@ -515,18 +519,24 @@ impl Octree {
 mod tests {
     use super::*;
 
+    /// Uniform draws in [0, 1) from `seed` (a 64-bit linear congruential stream, top 53
+    /// bits): the tests' coefficients and places.
+    fn uniform(seed: u64) -> impl FnMut() -> f64 {
+        let mut state = seed;
+        move || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
     /// The value and gradient side by side are each sum's bits alone (the value as
     /// [`tricubic_lanes`] sums it, the gradient as `Σ a (∂ of the term)` in a `DVec3`), on
     /// the vector build and the portable one: 200 draws of coefficients and places.
     #[test]
     fn the_value_and_gradient_side_by_side_are_each_sums_bits() {
-        let mut state = 0x2545_f491_4f6c_dd1d_u64;
-        let mut draw = || {
-            state = state
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1);
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut draw = uniform(0x2545_f491_4f6c_dd1d);
         for _ in 0..200 {
             let a: [f32; 64] = core::array::from_fn(|_| (20.0 * draw() - 10.0) as f32);
             let at = DVec3::new(draw(), draw(), draw());
@@ -558,13 +568,7 @@ mod tests {
     /// build's bits: 200 draws of four leaves' coefficients and places.
     #[test]
     fn the_lanes_sums_are_the_same_bits_on_every_path() {
-        let mut state = 0x9e37_79b9_7f4a_7c15_u64;
-        let mut draw = || {
-            state = state
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1);
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut draw = uniform(0x9e37_79b9_7f4a_7c15);
         for _ in 0..200 {
             let leaves: [[f32; 64]; LANES] =
                 core::array::from_fn(|_| core::array::from_fn(|_| (20.0 * draw() - 10.0) as f32));
