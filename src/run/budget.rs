@@ -177,13 +177,10 @@ fn encoder_params(config: &RunConfig) -> (f64, usize) {
         params += (channels * l.kernel * l.kernel * l.channels + l.channels) as f64;
         channels = l.channels;
     }
-    let [c, h, w] = cnn
-        .conv_output(o.channels(), o.height as usize, o.width as usize)
-        .unwrap_or([0, 0, 0]);
-    (
-        params + mlp_params(c * h * w, &[], cnn.features),
-        cnn.features,
-    )
+    let flat = cnn
+        .conv_features(o.channels(), o.height as usize, o.width as usize)
+        .unwrap_or(0);
+    (params + mlp_params(flat, &[], cnn.features), cnn.features)
 }
 
 /// Estimated bytes the run's learner holds: f32 parameters of every network (an image's

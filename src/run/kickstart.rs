@@ -1,29 +1,77 @@
 //! The teacher of a run with `[ppo.kickstart]` ([`foosball_algos::kickstart`]): a
-//! built-in controller that labels every observation the learner acts on with its own
-//! action, in the env's action space, for PPO's cloning term.
+//! player that labels every state the learner acts on with its own action, in the env's
+//! action space, for PPO's cloning term: a built-in controller, or a trained state policy
+//! (a run's networks), which is how a pixel learner is taught by a state teacher (issue
+//! 92: the teacher reads the state each picture was drawn from, [`Env::teacher_view`]).
 //!
-//! The labels are those the controller plays on the run's table
-//! ([`crate::play::scripted::controller_policy`]: the ball read back in world
-//! coordinates, the commands in the run's action map). The built-in players keep no state
-//! between steps (a kicker reads where a rod is in its swing off its angle), so one copy
-//! labels every env's observation and a resumed run labels as the uninterrupted one; the
-//! random player, whose action is a draw and not a function of the state, is refused
-//! ([`crate::config::RunConfig::validate`]).
+//! The labels are those the teacher plays on the run's table read as a state table
+//! ([`Contestant::policy`]: a controller reads the ball back in world coordinates, a run's
+//! networks their own observation; either's commands in the run's action map). A teacher
+//! keeps no state between steps (a kicker reads where a rod is in its swing off its
+//! angle; networks act deterministically), so one copy labels every env's state and a
+//! resumed run labels as the uninterrupted one. A player that draws its actions (`random`,
+//! a run's `~sampled` actions) is refused, and so are players whose answer can fail
+//! mid-rollout (an ONNX file, a program).
+//!
+//! [`Env::teacher_view`]: foosball_env::Env::teacher_view
 
+use crate::config::TestActions;
 use crate::config::{AlgoConfig, RunConfig};
-use crate::play::scripted::controller_policy;
+use crate::play::contestant::Contestant;
+use crate::play::scripted::ScriptedPolicy;
 use foosball_algos::BatchPolicy;
-use foosball_env::roster::opponent_for;
+use foosball_env::{FoosballConfig, ObservationKind};
 
-/// The labeller of `config`'s teacher: observations `[n, 38]` in, the teacher's actions
-/// `[n, 8]` out; `None` where the run has no teacher.
-pub fn teacher_labels(config: &RunConfig) -> Option<Box<BatchPolicy<'static>>> {
+/// The key a teacher is named under.
+const KEY: &str = "ppo.kickstart.teacher";
+
+/// `config`'s teacher as a player (`None` where the run has none), or why it cannot
+/// teach; messages name the key.
+pub fn teacher(config: &RunConfig) -> Result<Option<Contestant>, String> {
     let AlgoConfig::Ppo(ppo) = &config.algorithm else {
-        return None;
+        return Ok(None);
     };
-    let teacher = opponent_for(ppo.kickstart.teacher?);
+    let Some(name) = &ppo.kickstart.teacher else {
+        return Ok(None);
+    };
+    let player: Contestant = name.parse().map_err(|e| format!("{KEY}: {e}"))?;
+    refusal(&player).map_or(Ok(Some(player)), |why| {
+        Err(format!("{KEY}: `{name}` {why}"))
+    })
+}
+
+/// Why `player` cannot label states, if it cannot.
+fn refusal(player: &Contestant) -> Option<&'static str> {
+    match player {
+        Contestant::Scripted(ScriptedPolicy::Random)
+        | Contestant::Run {
+            actions: TestActions::Stochastic,
+            ..
+        } => Some("draws its actions: a teacher acts on the state alone"),
+        Contestant::Onnx { .. } | Contestant::Process { .. } => {
+            Some("can fail mid-rollout: a teacher is a built-in player or a run directory")
+        }
+        Contestant::Held { player, .. } => refusal(player),
+        Contestant::Scripted(_) | Contestant::Run { .. } => None,
+    }
+}
+
+/// The labeller of `config`'s teacher: states `[n, 38]` in (as a state learner of the
+/// run's table is handed them), the teacher's actions `[n, 8]` out; `None` where the run
+/// has no teacher. A run directory that cannot teach on this table is refused by key.
+pub fn teacher_labels(config: &RunConfig) -> Result<Option<Box<BatchPolicy<'static>>>, String> {
+    let Some(player) = teacher(config)? else {
+        return Ok(None);
+    };
+    let mut table: FoosballConfig = config.env.clone();
+    table.observation.kind = ObservationKind::State;
     // The seed is never read: the teachers allowed act on the state alone.
-    Some(controller_policy(teacher, 0, &config.env))
+    let mut policy = player
+        .policy(&table, 0)
+        .map_err(|e| format!("{KEY}: {e}"))?;
+    Ok(Some(Box::new(move |states: &[f32]| {
+        policy(states).expect("built-in players and a run's networks always answer")
+    })))
 }
 
 #[cfg(test)]
@@ -45,12 +93,12 @@ mod tests {
     #[test]
     fn the_shooter_labels_each_row_as_it_would_play_it() {
         assert!(
-            teacher_labels(&config("algo = \"ppo\"")).is_none(),
+            teacher_labels(&config("algo = \"ppo\"")).unwrap().is_none(),
             "no teacher, no labels"
         );
         let config = config("algo = \"ppo\"\n[ppo.kickstart]\nteacher = \"shooter\"\n");
         assert_eq!(config.env.ball_frame, BallFrame::Joint);
-        let mut label = teacher_labels(&config).expect("a teacher");
+        let mut label = teacher_labels(&config).unwrap().expect("a teacher");
         // Two world states: the ball just ahead of yellow's attack rod and far behind it.
         let attack_y = foosball_env::geometry::RODS[3].yellow_y;
         let worlds: Vec<[f32; OBS_DIM]> = [attack_y + 2.0, -40.0]

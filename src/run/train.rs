@@ -142,7 +142,7 @@ pub fn train_agent(
         let envs = VecEnv::new(envs.collect(), threads)?;
         let mut collector =
             Collector::with_seeds(envs, &restart_seeds(p.seed, state.epoch, p.envs));
-        if let Some(labels) = teacher_labels(config) {
+        if let Some(labels) = teacher_labels(config).map_err(TrainError::Init)? {
             collector = collector.with_teacher(labels);
         }
         Protocol {

@@ -158,21 +158,11 @@ fn malformed_files_and_wrong_sections_are_refused() {
             "{e}"
         );
     }
-    for (teacher, why) in [
-        ("random", "`random` draws its actions"),
-        (
-            "shooter\"\n[env.observation]\nkind = \"image",
-            "this run observes images",
-        ),
-    ] {
-        let e = error(&format!(
-            "algo = \"ppo\"\n[ppo.kickstart]\nteacher = \"{teacher}\"\n"
-        ));
-        assert!(
-            e.contains("ppo.kickstart.teacher: ") && e.contains(why),
-            "{e}"
-        );
-    }
+    let e = error("algo = \"ppo\"\n[ppo.kickstart]\nteacher = \"random\"\n");
+    assert!(
+        e.contains("ppo.kickstart.teacher: ") && e.contains("`random` draws its actions"),
+        "{e}"
+    );
     let e = error("algo = \"ppo\"\n[ppo.kickstart]\nteacher = \"shooter\"\ncoef_end = -1\n");
     assert!(e.contains("ppo.kickstart.coef_end"), "{e}");
     let e = error("algo = \"sac\"\n[ppo]\nn_steps = 8\n");

@@ -1,11 +1,14 @@
 //! Image observations: shape, value range and exact bytes, the frame stack's order, the
 //! picture matching the table's state, determinism in VecEnv whatever the thread count,
-//! bad settings refused by key, and a tiny run trained on pixels through a CNN end to end.
+//! bad settings refused by key, a tiny run trained on pixels through a CNN end to end, and
+//! a pixel learner taught by a state teacher (a run's networks reading the state behind
+//! each picture).
 
 use crate::common;
 
 use common::{scratch, tiny_config_text};
 use foosball_rl::config::RunConfig;
+use foosball_rl::env::foosball::in_ball_frame;
 use foosball_rl::env::layout::ACTION_DIM;
 use foosball_rl::env::observation::{channel_first, to_bytes};
 use foosball_rl::env::render::Renderer;
@@ -171,4 +174,94 @@ fn a_tiny_run_trains_on_pixels_and_records_states() {
     );
     assert!(!Path::new(&dir.join("b/metrics.json")).exists());
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// A teacher reads, behind each picture, the state it was drawn from in the env's ball
+/// frame; a state observation is already what a teacher reads.
+#[test]
+fn a_teacher_reads_the_state_behind_each_picture() {
+    let config = image_config(24, 36, true, 2);
+    let mut env = FoosballEnv::new(config.clone()).unwrap();
+    assert_eq!(env.teacher_view(), None, "nothing drawn before a reset");
+    env.reset(Some(3));
+    for t in 0..5 {
+        let state = env.state().unwrap();
+        let view = in_ball_frame(state, config.ball_frame);
+        assert_eq!(env.teacher_view(), Some(&view[..]), "step {t}");
+        env.step(&action(t)).unwrap();
+    }
+    let mut state_env = FoosballEnv::new(FoosballConfig::default()).unwrap();
+    state_env.reset(Some(3));
+    assert_eq!(state_env.teacher_view(), None);
+}
+
+/// A pixel learner taught by a state teacher (issue 92): a tiny state run's networks
+/// label, through `[ppo.kickstart]`, the states behind the pictures the learner acts on
+/// (pixel rows would not even split into states); under the shooter's labels the cloning
+/// term falls to half within 8,000 steps. Teachers that draw their actions or do not
+/// exist are refused by key.
+#[test]
+fn a_pixel_learner_clones_a_state_teacher() {
+    let dir = scratch("pixel-student");
+    let teacher = dir.join("teacher");
+    let state_config = dir.join("teacher.toml");
+    std::fs::write(&state_config, tiny_config_text("ppo", 1, 128)).unwrap();
+    let train = |config: &Path, out: &Path| {
+        Command::new(env!("CARGO_BIN_EXE_train"))
+            .args(["--config", config.to_str().unwrap()])
+            .args(["--out", out.to_str().unwrap(), "--force"])
+            .output()
+            .unwrap()
+    };
+    let o = train(&state_config, &teacher);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let student = |teacher: &str, steps: u64| {
+        tiny_config_text("ppo", 1, steps).replace(
+            "n_epochs = 2\n",
+            "n_epochs = 2\npg_coef = 0.0\nlog_std_init = -2.0\n",
+        ) + "lr = { constant = 3e-3 }\n\
+               [ppo.net.cnn]\nconvs = [{ channels = 4, kernel = 4, stride = 2 }]\nfeatures = 16\n\
+               [env.observation]\nkind = \"image\"\nwidth = 16\nheight = 24\nframe_stack = 2\n\
+               [ppo.kickstart]\ncoef_start = 1.0\ncoef_end = 1.0\nteacher = \""
+            + teacher
+            + "\"\n"
+    };
+    let config = dir.join("student.toml");
+    let losses = |teacher: &str, steps: u64| -> Vec<f64> {
+        let run = dir.join("student");
+        std::fs::write(&config, student(teacher, steps)).unwrap();
+        let o = train(&config, &run);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(run.join("test/metrics.json").is_file());
+        let scalars = std::fs::read_to_string(run.join("scalars.csv")).unwrap();
+        (scalars.lines())
+            .filter(|l| l.contains(",train/kickstart_loss,"))
+            .map(|l| l.rsplit(',').next().unwrap().parse().unwrap())
+            .collect()
+    };
+    assert_eq!(losses(teacher.to_str().unwrap(), 1000).len(), 1);
+    let shooter = losses("shooter", 8000);
+    assert_eq!(shooter.len(), 8);
+    let (first, last) = (shooter[0], shooter[7]);
+    assert!(
+        last < 0.5 * first,
+        "cloning term {first} -> {last}: {shooter:?}"
+    );
+
+    for (name, why) in [
+        (
+            format!("{}~sampled", teacher.display()),
+            "draws its actions",
+        ),
+        ("no/such/run".to_string(), "has no config.toml"),
+    ] {
+        std::fs::write(&config, student(&name, 1000)).unwrap();
+        let o = train(&config, &dir.join("refused"));
+        assert_eq!(o.status.code(), Some(2), "{name}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            err.contains("ppo.kickstart.teacher: ") && err.contains(why),
+            "{name}: {err}"
+        );
+    }
 }

@@ -48,6 +48,7 @@ fn ppo_with_a_cnn_learns_to_block_from_pixels() {
             cnn: CnnConfig {
                 convs: vec![conv(8, 4, 2), conv(16, 3, 2)],
                 features: 32,
+                ..CnnConfig::default()
             },
             ..base.net.clone()
         },

@@ -24,7 +24,6 @@
 //! training loop hands the labels in [`crate::Experience::teacher`]).
 
 use crate::config::{ConfigError, ensure};
-use foosball_env::OpponentKind;
 use foosball_env::layout::{action_slide, action_turn};
 use serde::{Deserialize, Serialize};
 
@@ -32,10 +31,13 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct KickstartConfig {
-    /// The built-in controller that labels the learner's states (`shooter`, `dribbler`,
-    /// ...; `None`: off). It sees each state as the env hands it to the learner (with
-    /// black's rods hidden where `env.observation` hides them).
-    pub teacher: Option<OpponentKind>,
+    /// Who labels the learner's states (`None`: off): a built-in player (`shooter`,
+    /// `dribbler`, `blocker`, `zero`) or a trained state policy, a run directory
+    /// `DIR[@best|@last]` (issue 92: a state teacher for a pixel learner). The run turns
+    /// the name into a labeller. It reads each state as the env hands it to a state
+    /// learner (black's rods hidden where `env.observation` hides them); where the learner
+    /// sees pictures, the state each picture was drawn from.
+    pub teacher: Option<String>,
     /// Weight of the cloning term at the start of training.
     pub coef_start: f32,
     /// Weight at the end (linear in env steps between the two).
@@ -195,7 +197,7 @@ mod tests {
     #[test]
     fn the_weight_falls_from_start_to_end() {
         let c = KickstartConfig {
-            teacher: Some(OpponentKind::Shooter),
+            teacher: Some("shooter".into()),
             coef_start: 4.0,
             coef_end: 1.0,
             ..KickstartConfig::default()

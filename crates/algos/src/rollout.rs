@@ -50,7 +50,9 @@ impl<E: Env> Collector<E> {
     }
 
     /// The same collector with `teacher` labelling every observation acted on
-    /// (`[n_envs, obs_dim]` as the envs return them in, `[n_envs, action_dim]` out).
+    /// (`[n_envs, action_dim]` out). It reads what each env's [`Env::teacher_view`] gives
+    /// (the state behind an image), else the observation as the env returned it: rows of
+    /// `[n_envs, view_dim]` in.
     pub fn with_teacher(self, teacher: Box<BatchPolicy<'static>>) -> Self {
         Self {
             teacher: Some(teacher),
@@ -89,7 +91,13 @@ impl<E: Env> Collector<E> {
         mut on_episode: impl FnMut(usize, Episode, &E::Info),
     ) -> Result<Option<Metrics>, VecEnvError> {
         let actions = agent.act(&self.obs, ActMode::Explore);
-        let labels = self.teacher.as_mut().map(|t| t(&self.obs));
+        let labels = match self.teacher.as_mut() {
+            Some(teach) => Some(match teacher_views(self.envs.envs()) {
+                Some(views) => teach(&views),
+                None => teach(&self.obs),
+            }),
+            None => None,
+        };
         let step = match restart {
             None => self.envs.step(&actions)?,
             Some(seeds) => self.envs.step_then_restart(&actions, seeds)?,
@@ -123,6 +131,15 @@ impl<E: Env> Collector<E> {
         self.obs.copy_from_slice(step.obs);
         Ok(agent.update(progress_remaining))
     }
+}
+
+/// The envs' [`Env::teacher_view`]s side by side, `None` where an env has none.
+fn teacher_views<E: Env>(envs: &[E]) -> Option<Vec<f32>> {
+    let mut views = Vec::new();
+    for env in envs {
+        views.extend_from_slice(env.teacher_view()?);
+    }
+    Some(views)
 }
 
 /// A policy acting on a batch: observations `[n, obs_dim]` in, actions `[n, action_dim]`

@@ -79,6 +79,14 @@ pub trait Env: Send {
         obs: &mut [f32],
     ) -> Result<Transition<Self::Info>, EnvError>;
 
+    /// What a privileged teacher reads of the observation last written, where that
+    /// differs from the observation itself (issue 92: the 38-value state behind an image
+    /// observation, in the env's ball frame); `None`, the default, where the observation
+    /// is what a teacher reads.
+    fn teacher_view(&self) -> Option<&[f32]> {
+        None
+    }
+
     /// [`Env::reset_into`] returning a fresh vector.
     fn reset(&mut self, seed: Option<u64>) -> Vec<f32> {
         let mut obs = vec![0.0; self.obs_dim()];

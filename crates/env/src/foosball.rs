@@ -260,6 +260,9 @@ pub struct FoosballEnv {
     agent_steps: u64,
     /// The side that serves next under `start.serve = "conceded"`.
     server: Team,
+    /// Image observations only: the state the last frame was drawn from (position noise
+    /// included), in the ball frame: what a state teacher reads ([`Env::teacher_view`]).
+    state_view: Option<[f32; OBS_DIM]>,
 }
 
 fn uniform(rng: &mut EnvRng, [lo, hi]: [f32; 2]) -> f32 {
@@ -298,6 +301,7 @@ impl FoosballEnv {
             own_rng: None,
             agent_steps: 0,
             server: Team::Yellow,
+            state_view: None,
         })
     }
 
@@ -334,6 +338,7 @@ impl FoosballEnv {
             own_rng: self.own_rng.clone(),
             agent_steps: self.agent_steps,
             server: self.server,
+            state_view: self.state_view,
         })
     }
 
@@ -555,6 +560,7 @@ impl FoosballEnv {
                 self.config.observation.conceal(out);
             }
             Some(frames) => {
+                self.state_view = Some(in_ball_frame(&seen, self.config.ball_frame));
                 if first {
                     frames.reset(&seen);
                 } else {
@@ -702,6 +708,12 @@ impl Env for FoosballEnv {
         let transition = self.advance(action, obs)?;
         self.agent_steps += 1;
         Ok(transition)
+    }
+
+    /// For an image observation, the state its last frame was drawn from, in the ball
+    /// frame (38 values: what a state learner would have been handed).
+    fn teacher_view(&self) -> Option<&[f32]> {
+        self.state_view.as_ref().map(|s| &s[..])
     }
 }
 

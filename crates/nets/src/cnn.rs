@@ -3,6 +3,18 @@
 //! default (Mnih et al. 2015: conv 32 8x8 stride 4, conv 64 4x4 stride 2, conv 64 3x3
 //! stride 1, each with ReLU, flattened, linear to 512 features with ReLU).
 //!
+//! With `spatial_softmax` the last convolution's maps are read as keypoints instead of
+//! flattened (Levine, Finn, Darrell and Abbeel, "End-to-End Training of Deep Visuomotor
+//! Policies", 2016): per channel `c` a softmax over its `H x W` positions and the expected
+//! position under it, `(x_c, y_c) = sum_p softmax(a_c)_p (u_p, v_p)` with `u, v` the
+//! pixel centres mapped to `[-1, 1]` (column left to right, row top to bottom), `2 C`
+//! values in all: a position finer than the map's grid, which is what a policy that aims
+//! a kick at a 3.5 cm ball needs from a picture a pixel to the cm. With
+//! `keypoint_frequencies = K` > 0 each coordinate `k` then reaches the linear layer as
+//! `[k, sin(pi k), cos(pi k), ..., sin(2^(K-1) pi k), cos(2^(K-1) pi k)]` (the `[fourier]`
+//! encoding the state learners use, on the keypoints: Tancik et al. 2020 on why a small
+//! network needs it to resolve fine differences of a position).
+//!
 //! Images arrive flat, `[batch, channels * height * width]` channel-first with values in
 //! `[0, 1]` (SB3 divides bytes by 255 in the same place), and are reshaped to
 //! `[batch, channels, height, width]`. Parameters follow PyTorch's default law for
@@ -12,8 +24,8 @@ use crate::init::{linear, uniform_tensor};
 use burn::module::{Module, Param};
 use burn::nn::conv::Conv2d;
 use burn::nn::{Linear, PaddingConfig2d};
-use burn::tensor::activation::relu;
-use burn::tensor::{Device, Tensor};
+use burn::tensor::activation::{relu, softmax};
+use burn::tensor::{Device, Tensor, TensorData};
 use rand::Rng;
 
 /// The shape of an observation.
@@ -69,8 +81,15 @@ pub struct ConvLayer {
 pub struct CnnConfig {
     /// Convolutions, input side first, each followed by ReLU.
     pub convs: Vec<ConvLayer>,
-    /// Width of the linear layer (with ReLU) after the flattened convolutions.
+    /// Width of the linear layer (with ReLU) after the flattened convolutions (or their
+    /// keypoints).
     pub features: usize,
+    /// The last convolution's maps read as `2 x channels` keypoint coordinates (spatial
+    /// soft-argmax) instead of flattened.
+    pub spatial_softmax: bool,
+    /// With `spatial_softmax`: the sin/cos pairs of each keypoint coordinate (0: the
+    /// coordinates alone), frequencies `pi 2^k`, `k` = 0..K.
+    pub keypoint_frequencies: u32,
 }
 
 impl Default for CnnConfig {
@@ -84,6 +103,8 @@ impl Default for CnnConfig {
         Self {
             convs: vec![conv(32, 8, 4), conv(64, 4, 2), conv(64, 3, 1)],
             features: 512,
+            spatial_softmax: false,
+            keypoint_frequencies: 0,
         }
     }
 }
@@ -93,6 +114,15 @@ impl CnnConfig {
     pub fn validate(&self) -> Result<(), String> {
         if self.features == 0 {
             return Err("features: must be positive".into());
+        }
+        if self.keypoint_frequencies > 0 && !self.spatial_softmax {
+            return Err("keypoint_frequencies: encodes keypoints: set spatial_softmax".into());
+        }
+        if self.keypoint_frequencies > MAX_KEYPOINT_FREQUENCIES {
+            return Err(format!(
+                "keypoint_frequencies: at most {MAX_KEYPOINT_FREQUENCIES}, got {}",
+                self.keypoint_frequencies
+            ));
         }
         match self
             .convs
@@ -104,6 +134,23 @@ impl CnnConfig {
             )),
             None => Ok(()),
         }
+    }
+
+    /// Values the convolutions hand the linear layer for an image of `(channels,
+    /// height, width)`: the flattened maps, or two coordinates a channel.
+    pub fn conv_features(
+        &self,
+        channels: usize,
+        height: usize,
+        width: usize,
+    ) -> Result<usize, String> {
+        let [c, h, w] = self.conv_output(channels, height, width)?;
+        let per_coordinate = 1 + 2 * self.keypoint_frequencies as usize;
+        Ok(if self.spatial_softmax {
+            2 * c * per_coordinate
+        } else {
+            c * h * w
+        })
     }
 
     /// `(channels, height, width)` after the convolutions of an image of `(height,
@@ -141,6 +188,12 @@ pub struct Cnn {
     linear: Linear,
     #[module(skip)]
     input: [usize; 3],
+    /// Keypoints instead of flattened maps ([`CnnConfig::spatial_softmax`]).
+    #[module(skip)]
+    spatial_softmax: bool,
+    /// Sin/cos pairs of each keypoint coordinate ([`CnnConfig::keypoint_frequencies`]).
+    #[module(skip)]
+    keypoint_frequencies: u32,
 }
 
 impl Cnn {
@@ -152,7 +205,7 @@ impl Cnn {
         rng: &mut impl Rng,
         device: &Device,
     ) -> Result<Self, String> {
-        let [c, h, w] = config.conv_output(input[0], input[1], input[2])?;
+        let flat = config.conv_features(input[0], input[1], input[2])?;
         let mut in_channels = input[0];
         let convs = config
             .convs
@@ -175,11 +228,13 @@ impl Cnn {
                 }
             })
             .collect();
-        let linear = linear(c * h * w, config.features, rng, device);
+        let linear = linear(flat, config.features, rng, device);
         Ok(Self {
             convs,
             linear,
             input,
+            spatial_softmax: config.spatial_softmax,
+            keypoint_frequencies: config.keypoint_frequencies,
         })
     }
 
@@ -199,8 +254,59 @@ impl Cnn {
             .convs
             .iter()
             .fold(nhwc, |x, conv| relu(conv_nhwc(x, conv)));
-        relu(self.linear.forward(x.permute([0, 3, 1, 2]).flatten(1, 3)))
+        let flat = if self.spatial_softmax {
+            fourier(keypoints(x), self.keypoint_frequencies)
+        } else {
+            x.permute([0, 3, 1, 2]).flatten(1, 3)
+        };
+        relu(self.linear.forward(flat))
     }
+}
+
+/// Most sin/cos pairs a keypoint coordinate may get.
+pub const MAX_KEYPOINT_FREQUENCIES: u32 = 12;
+
+/// `[batch, n]` values `k`, each as `[k, sin(pi k), cos(pi k), ..., sin(2^(K-1) pi k),
+/// cos(2^(K-1) pi k)]`: `[batch, n (1 + 2K)]`, one value's block after another; the
+/// values alone where `K` = 0.
+pub fn fourier(values: Tensor<2>, frequencies: u32) -> Tensor<2> {
+    if frequencies == 0 {
+        return values;
+    }
+    let [batch, n] = values.dims();
+    let k = frequencies as usize;
+    let device = values.device();
+    let scales: Vec<f32> = (0..k)
+        .map(|j| std::f32::consts::PI * 2f32.powi(j as i32))
+        .collect();
+    let scales = Tensor::<3>::from_data(TensorData::new(scales, [1, 1, k]), &device);
+    let angles = values.clone().reshape([batch, n, 1]) * scales;
+    // [batch, n, K, 2]: each frequency's sin beside its cos.
+    let pairs = Tensor::stack::<4>(vec![angles.clone().sin(), angles.cos()], 3);
+    let pairs = pairs.reshape([batch, n, 2 * k]);
+    Tensor::cat(vec![values.reshape([batch, n, 1]), pairs], 2).reshape([batch, n * (1 + 2 * k)])
+}
+
+/// The spatial soft-argmax of channels-last maps `[batch, height, width, channels]`:
+/// `[batch, 2 * channels]`, channel `c`'s expected column coordinate at `2c` and row
+/// coordinate at `2c + 1`, each in `[-1, 1]` (pixel centres, first to last).
+pub fn keypoints(maps: Tensor<4>) -> Tensor<2> {
+    let [batch, h, w, c] = maps.dims();
+    let device = maps.device();
+    let logits = maps.permute([0, 3, 1, 2]).reshape([batch * c, h * w]);
+    let weights = softmax(logits, 1);
+    let centre = |i: usize, n: usize| {
+        if n > 1 {
+            2.0 * i as f32 / (n - 1) as f32 - 1.0
+        } else {
+            0.0
+        }
+    };
+    let grid: Vec<f32> = (0..h * w)
+        .flat_map(|p| [centre(p % w, w), centre(p / w, h)])
+        .collect();
+    let grid = Tensor::<2>::from_data(TensorData::new(grid, [h * w, 2]), &device);
+    weights.matmul(grid).reshape([batch, 2 * c])
 }
 
 /// `conv`'s valid convolution of a channels-last batch `[batch, height, width, in]` to
@@ -306,6 +412,7 @@ mod tests {
                 stride: 2,
             }],
             features: 4,
+            ..CnnConfig::default()
         };
         let mut rng = ChaCha8Rng::seed_from_u64(4);
         let cnn = Cnn::new([3, 11, 8], &config, &mut rng, &device).unwrap();
@@ -321,6 +428,65 @@ mod tests {
         for (a, b) in direct.iter().zip(&im2col) {
             assert!((a - b).abs() < 1e-5, "{a} vs {b}");
         }
+    }
+
+    /// A channel hot at one pixel points there (`[-1, 1]` over the pixel centres); a flat
+    /// channel points at the middle; the head hands the linear layer two values a channel.
+    #[test]
+    fn keypoints_are_the_expected_positions_under_each_channels_softmax() {
+        let device = Backend::default_cpu().unwrap().device().unwrap();
+        let (h, w, c) = (3, 5, 2);
+        let mut values = vec![0.0_f32; h * w * c];
+        // Channel 0 hot at row 1, column 3 (channels last).
+        values[(w + 3) * c] = 60.0;
+        let maps = Tensor::<4>::from_data(TensorData::new(values, [1, h, w, c]), &device);
+        let points: Vec<f32> = keypoints(maps).into_data().try_into_vec().unwrap();
+        let expected = [0.5, 0.0, 0.0, 0.0];
+        for (p, e) in points.iter().zip(expected) {
+            assert!((p - e).abs() < 1e-5, "{points:?}");
+        }
+        let config = CnnConfig {
+            spatial_softmax: true,
+            ..CnnConfig::default()
+        };
+        assert_eq!(config.conv_features(4, 84, 84), Ok(128));
+        assert_eq!(CnnConfig::default().conv_features(4, 84, 84), Ok(3136));
+        let cnn = Cnn::new(
+            [4, 84, 84],
+            &config,
+            &mut ChaCha8Rng::seed_from_u64(0),
+            &device,
+        )
+        .unwrap();
+        let out = cnn.forward(Tensor::<2>::zeros([2, 4 * 84 * 84], &device));
+        assert_eq!(out.dims(), [2, 512]);
+        let encoded = CnnConfig {
+            keypoint_frequencies: 3,
+            ..config
+        };
+        assert_eq!(encoded.conv_features(4, 84, 84), Ok(128 * 7));
+        let values = Tensor::<2>::from_data(TensorData::new(vec![0.25_f32, -0.5], [1, 2]), &device);
+        let f: Vec<f32> = fourier(values, 3).into_data().try_into_vec().unwrap();
+        let pi = std::f32::consts::PI;
+        for (v, block) in [0.25_f32, -0.5].iter().zip(f.chunks(7)) {
+            let mut expected = vec![*v];
+            for j in 0..3 {
+                let a = pi * 2f32.powi(j) * v;
+                expected.extend([a.sin(), a.cos()]);
+            }
+            for (x, e) in block.iter().zip(&expected) {
+                assert!((x - e).abs() < 1e-5, "{block:?} vs {expected:?}");
+            }
+        }
+        let bad = CnnConfig {
+            keypoint_frequencies: 2,
+            ..CnnConfig::default()
+        };
+        assert!(
+            bad.validate()
+                .unwrap_err()
+                .starts_with("keypoint_frequencies")
+        );
     }
 
     #[test]
@@ -342,6 +508,7 @@ mod tests {
                 stride: 2,
             }],
             features: 5,
+            ..CnnConfig::default()
         };
         let build = |seed| {
             Cnn::new(
