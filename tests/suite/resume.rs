@@ -144,11 +144,15 @@ fn a_self_imitating_ppo_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrup
     stopped_mid_epoch_and_resumed("ppo", sil, Some(Backend::Host));
 }
 
-/// A kickstarted PPO's teacher labels (the rollout's column) are part of the checkpoint.
+/// A kickstarted PPO's teacher labels (the rollout's column) and DAgger's aggregate of
+/// them (`keep`, full and overwriting its oldest rows by the stop) are part of the
+/// checkpoint.
 #[test]
 fn a_kickstarted_ppo_run_stopped_mid_epoch_and_resumed_ends_as_the_uninterrupted_one() {
     let kickstart = "[ppo.kickstart]\nteacher = \"shooter\"\ncoef_start = 2.0\n";
     stopped_mid_epoch_and_resumed("ppo", kickstart, Some(Backend::Host));
+    let aggregate = format!("{kickstart}keep = 100\nupdates = 3\n");
+    stopped_mid_epoch_and_resumed("ppo", &aggregate, Some(Backend::Host));
 }
 
 #[test]

@@ -21,6 +21,7 @@ use crate::config::{ConfigError, ensure};
 use crate::demonstrations::{Demonstration, demonstration_rows};
 use crate::kickstart::{check_rods, rod_actions};
 use crate::tensors::gather_rows;
+use foosball_nets::{Snapshot, SnapshotError};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -81,6 +82,8 @@ pub struct DemoRows {
     actions: Vec<f32>,
     obs_dim: usize,
     action_dim: usize,
+    /// Where [`DemoRows::keep_newest`] writes the next row once the rows are full.
+    next: usize,
 }
 
 /// One cloning step's rows: states `[n, obs_dim]` and the actions to clone `[n, action_dim]`.
@@ -105,7 +108,50 @@ impl DemoRows {
             actions,
             obs_dim,
             action_dim,
+            next: 0,
         })
+    }
+
+    /// No rows yet, for states `[obs_dim]` and actions `[action_dim]`.
+    pub fn empty(obs_dim: usize, action_dim: usize) -> Self {
+        Self {
+            obs_dim,
+            action_dim,
+            ..Self::default()
+        }
+    }
+
+    /// Adds the rows `obs [n, obs_dim]` with `actions [n, action_dim]`, holding the newest
+    /// `keep` at most: once `keep` are held, each new row takes the place of the oldest.
+    pub fn keep_newest(&mut self, obs: &[f32], actions: &[f32], keep: usize) {
+        let (o, a) = (self.obs_dim, self.action_dim);
+        for (s, act) in obs.chunks_exact(o).zip(actions.chunks_exact(a)) {
+            if self.len() < keep {
+                self.obs.extend_from_slice(s);
+                self.actions.extend_from_slice(act);
+            } else {
+                let at = self.next % keep;
+                self.obs[at * o..(at + 1) * o].copy_from_slice(s);
+                self.actions[at * a..(at + 1) * a].copy_from_slice(act);
+                self.next = at + 1;
+            }
+        }
+    }
+
+    /// Stores the rows under `prefix.*`.
+    pub fn save_state<'a>(&'a self, snap: &mut Snapshot<'a>, prefix: &str) {
+        snap.put_f32(format!("{prefix}.obs"), &self.obs[..]);
+        snap.put_f32(format!("{prefix}.actions"), &self.actions[..]);
+        snap.put_u64(format!("{prefix}.next"), self.next as u64);
+    }
+
+    /// The rows [`DemoRows::save_state`] stored under `prefix.*`.
+    pub fn load_state(&mut self, snap: &Snapshot<'_>, prefix: &str) -> Result<(), SnapshotError> {
+        self.obs = snap.f32s(&format!("{prefix}.obs"))?.to_vec();
+        let values = self.len() * self.action_dim;
+        self.actions = (snap.f32s_of_len(&format!("{prefix}.actions"), values))?.to_vec();
+        self.next = snap.u64(&format!("{prefix}.next"))? as usize;
+        Ok(())
     }
 
     /// Rows held.
@@ -158,6 +204,30 @@ mod tests {
             assert!(batch.obs.contains(&state), "state {state} never drawn");
         }
         assert!(DemoRows::default().is_empty());
+    }
+
+    /// The newest rows are kept, each new one in the oldest's place once full, and the
+    /// rows come back from a snapshot as they were.
+    #[test]
+    fn the_newest_rows_are_kept_and_saved() {
+        let mut rows = DemoRows::empty(1, 1);
+        rows.keep_newest(&[0.0, 1.0, 2.0], &[0.0, -1.0, -2.0], 4);
+        assert_eq!(rows.len(), 3);
+        rows.keep_newest(&[3.0, 4.0, 5.0], &[-3.0, -4.0, -5.0], 4);
+        assert_eq!(rows.len(), 4);
+        let mut held = rows.obs.clone();
+        held.sort_by(f32::total_cmp);
+        assert_eq!(held, [2.0, 3.0, 4.0, 5.0]);
+        assert!(rows.obs.iter().zip(&rows.actions).all(|(s, a)| *a == -*s));
+        let mut snap = Snapshot::new();
+        rows.save_state(&mut snap, "k");
+        let mut back = DemoRows::empty(1, 1);
+        back.load_state(&snap, "k").unwrap();
+        assert_eq!(back, rows);
+        rows.keep_newest(&[6.0], &[-6.0], 4);
+        back.keep_newest(&[6.0], &[-6.0], 4);
+        assert_eq!(back, rows, "a restored ring goes on as the original");
+        assert!(!rows.obs.contains(&2.0));
     }
 
     #[test]

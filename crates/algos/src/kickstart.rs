@@ -22,6 +22,12 @@
 //! the Gaussian's mean, the part of `-log pi(a*|s)` that does not involve the standard
 //! deviation (the exploration stays PPO's own). Who labels is the run's business (the
 //! training loop hands the labels in [`crate::Experience::teacher`]).
+//!
+//! With `keep` > 0 the labelled rows also join DAgger's aggregate (Ross et al. 2011),
+//! the newest `keep` of them, and after each rollout's epochs `updates` steps of the same
+//! term on `ppo.batch_size` rows drawn uniformly from it (logged as
+//! `train/kickstart_aggregate_loss` and `_rows`): each step then sees states of many
+//! rollouts, not of the last one alone.
 
 use crate::config::{ConfigError, ensure};
 use foosball_env::layout::{action_slide, action_turn};
@@ -44,6 +50,11 @@ pub struct KickstartConfig {
     pub coef_end: f32,
     /// The rods whose commands are cloned (0 goalie, 1 defence, 2 midfield, 3 attack).
     pub rods: Vec<usize>,
+    /// Labelled rows kept as DAgger's aggregate, the newest first to stay (0: none, the
+    /// rollout's labels alone). The aggregate goes into the checkpoint.
+    pub keep: usize,
+    /// Cloning steps on rows drawn from the aggregate after each rollout's epochs.
+    pub updates: usize,
 }
 
 impl Default for KickstartConfig {
@@ -53,6 +64,8 @@ impl Default for KickstartConfig {
             coef_start: 1.0,
             coef_end: 0.0,
             rods: vec![0, 1, 2, 3],
+            keep: 0,
+            updates: 32,
         }
     }
 }
@@ -78,6 +91,11 @@ impl KickstartConfig {
     /// naming the key.
     pub fn validate(&self) -> Result<(), ConfigError> {
         check_rods(&self.rods)?;
+        ensure(
+            self.keep == 0 || self.updates > 0,
+            "updates",
+            "must be at least 1 where rows are kept",
+        )?;
         for (key, value) in [("coef_start", self.coef_start), ("coef_end", self.coef_end)] {
             ensure(
                 value.is_finite() && value >= 0.0,

@@ -301,6 +301,8 @@ pub struct Ppo {
     self_imitation: Option<SelfImitation>,
     /// The demonstrations handed in (`[ppo.demonstrations]`), none at first.
     demos: DemoRows,
+    /// DAgger's aggregate of labelled rows (`[ppo.kickstart] keep`), none at first.
+    aggregate: DemoRows,
     last_obs: Vec<f32>,
     last_dones: Vec<f32>,
     env_steps: u64,
@@ -423,6 +425,13 @@ fn self_imitation_step<N: PpoNetworks>(
     Metrics(metrics)
 }
 
+/// The names of a demonstrations cloning step's loss and gradient norm.
+const DEMO_METRICS: [&str; 2] = ["demo_cloning_loss", "demo_cloning_grad_norm"];
+/// The names of an aggregate cloning step's ([`KickstartConfig::keep`]).
+const AGGREGATE_METRICS: [&str; 2] = ["kickstart_aggregate_loss", "kickstart_aggregate_grad_norm"];
+/// Where the checkpoint holds DAgger's aggregate.
+const AGGREGATE_STATE: &str = "ppo.kickstart_aggregate";
+
 /// One cloning step on demonstrated rows ([`crate::demo_cloning`]'s loss) on either
 /// path: only the means of the `cloned` action values feel a gradient,
 /// `dL/dmu = 2 coef (mu - a) / n`.
@@ -432,6 +441,7 @@ fn demonstration_step<N: PpoNetworks>(
     (o, a): (usize, usize),
     rows: &DemoBatch,
     lr: f64,
+    [loss_name, norm_name]: [&'static str; 2],
 ) -> Metrics {
     let r = nets.rows();
     let n = rows.obs.len() / o;
@@ -451,8 +461,8 @@ fn demonstration_step<N: PpoNetworks>(
         lr,
     );
     Metrics(vec![
-        ("demo_cloning_loss", f64::from(loss).into()),
-        ("demo_cloning_grad_norm", report.grad_norm),
+        (loss_name, f64::from(loss).into()),
+        (norm_name, report.grad_norm),
     ])
 }
 
@@ -491,6 +501,7 @@ impl Ppo {
                 SelfImitation::new(sil, config.gamma, (obs_dim, action_dim), seed)
             }),
             demos: DemoRows::default(),
+            aggregate: DemoRows::empty(obs_dim, action_dim),
             last_obs: Vec::new(),
             last_dones: Vec::new(),
             env_steps: 0,
@@ -595,22 +606,47 @@ impl Ppo {
             let term = (d.coef, &d.cloned_actions(a)[..]);
             for _ in 0..d.updates {
                 let rows = self.demos.sample(d.batch_size, &mut self.rng);
-                steps.push(match &mut self.networks {
-                    OnPath::Burn(burn) => {
-                        demonstration_step(burn.as_mut(), term, (o, a), &rows, lr)
-                    }
-                    OnPath::Host(host) => {
-                        demonstration_step(host.as_mut(), term, (o, a), &rows, lr)
-                    }
-                });
+                steps.push(self.cloning_step(term, &rows, lr, DEMO_METRICS));
             }
             metrics.0.extend(Metrics::mean(steps).0);
             metrics
                 .0
                 .push(("demo_cloning_rows", (self.demos.len() as f64).into()));
         }
+        let k = &c.kickstart;
+        if k.keep > 0 && !self.rollout.teacher.is_empty() {
+            let r = &self.rollout;
+            self.aggregate.keep_newest(&r.obs, &r.teacher, k.keep);
+            let term = (kickstart, &k.cloned_actions(a)[..]);
+            let steps: Vec<Metrics> = (0..k.updates)
+                .map(|_| {
+                    let rows = self.aggregate.sample(c.batch_size, &mut self.rng);
+                    self.cloning_step(term, &rows, lr, AGGREGATE_METRICS)
+                })
+                .collect();
+            metrics.0.extend(Metrics::mean(steps).0);
+            metrics.0.push((
+                "kickstart_aggregate_rows",
+                (self.aggregate.len() as f64).into(),
+            ));
+        }
         self.rollout.clear();
         metrics
+    }
+
+    /// One [`demonstration_step`] on `rows` on the networks' path.
+    fn cloning_step(
+        &mut self,
+        term: (f32, &[bool]),
+        rows: &DemoBatch,
+        lr: f64,
+        names: [&'static str; 2],
+    ) -> Metrics {
+        let dims = (self.obs_dim, self.action_dim);
+        match &mut self.networks {
+            OnPath::Burn(burn) => demonstration_step(burn.as_mut(), term, dims, rows, lr, names),
+            OnPath::Host(host) => demonstration_step(host.as_mut(), term, dims, rows, lr, names),
+        }
     }
 }
 
@@ -800,6 +836,9 @@ impl Agent for Ppo {
         if let Some(sil) = &self.self_imitation {
             sil.save_state(snap, "ppo.self_imitation");
         }
+        if self.config.kickstart.keep > 0 {
+            self.aggregate.save_state(snap, AGGREGATE_STATE);
+        }
     }
 
     fn load_state(&mut self, snap: &Snapshot<'_>) -> Result<(), SnapshotError> {
@@ -818,6 +857,9 @@ impl Agent for Ppo {
         self.noise.load_state(snap, "ppo.noise")?;
         if let Some(sil) = &mut self.self_imitation {
             sil.load_state(snap, "ppo.self_imitation")?;
+        }
+        if self.config.kickstart.keep > 0 {
+            self.aggregate.load_state(snap, AGGREGATE_STATE)?;
         }
         self.pending = None;
         Ok(())
@@ -1253,6 +1295,44 @@ mod tests {
                 .iter()
                 .all(|m| value(m, "kickstart_loss").is_none())
         );
+        assert!(
+            updates
+                .iter()
+                .all(|m| value(m, "kickstart_aggregate_rows").is_none())
+        );
+    }
+
+    /// With `keep`, each rollout's labelled rows join the aggregate (the newest 150 kept)
+    /// and its cloning steps bring the means to the teacher's on unseen states, on both
+    /// paths, with the rollout's own epochs cut to one.
+    #[test]
+    fn a_kickstarted_policy_clones_its_teacher_from_the_aggregate() {
+        for host_path in [true, false] {
+            let mut c = small();
+            c.n_epochs = 1;
+            c.kickstart = KickstartConfig {
+                teacher: Some("shooter".into()),
+                coef_start: 20.0,
+                coef_end: 20.0,
+                keep: 150,
+                updates: 8,
+                ..KickstartConfig::default()
+            };
+            let (mut cloned, updates) = drive(c, host_path, 40);
+            let rows: Vec<f64> = (updates.iter())
+                .map(|m| value(m, "kickstart_aggregate_rows").unwrap())
+                .collect();
+            let per_rollout = rows[0];
+            assert!(per_rollout > 0.0 && per_rollout < 150.0, "{rows:?}");
+            assert_eq!(rows[1], (2.0 * per_rollout).min(150.0));
+            assert_eq!(rows[rows.len() - 1], 150.0);
+            let loss: Vec<f64> = (updates.iter())
+                .map(|m| value(m, "kickstart_aggregate_loss").unwrap())
+                .collect();
+            assert!(loss[loss.len() - 1] < 0.1 * loss[0], "{loss:?}");
+            let e = error(&mut cloned);
+            assert!(e < 0.02, "host path {host_path}: {e}");
+        }
     }
 
     /// With demonstrations of [`teacher`] (on states of their own) handed in, the cloning
