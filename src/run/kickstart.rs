@@ -15,8 +15,7 @@
 //!
 //! [`Env::teacher_view`]: foosball_env::Env::teacher_view
 
-use crate::config::TestActions;
-use crate::config::{AlgoConfig, RunConfig};
+use crate::config::{AlgoConfig, RunConfig, TestActions};
 use crate::play::contestant::Contestant;
 use crate::play::scripted::ScriptedPolicy;
 use foosball_algos::BatchPolicy;
@@ -27,7 +26,7 @@ const KEY: &str = "ppo.kickstart.teacher";
 
 /// `config`'s teacher as a player (`None` where the run has none), or why it cannot
 /// teach; messages name the key.
-pub fn teacher(config: &RunConfig) -> Result<Option<Contestant>, String> {
+fn teacher(config: &RunConfig) -> Result<Option<Contestant>, String> {
     let AlgoConfig::Ppo(ppo) = &config.algorithm else {
         return Ok(None);
     };
