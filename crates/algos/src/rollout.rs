@@ -91,13 +91,13 @@ impl<E: Env> Collector<E> {
         mut on_episode: impl FnMut(usize, Episode, &E::Info),
     ) -> Result<Option<Metrics>, VecEnvError> {
         let actions = agent.act(&self.obs, ActMode::Explore);
-        let labels = match self.teacher.as_mut() {
-            Some(teach) => Some(match teacher_views(self.envs.envs()) {
+        let labels = self
+            .teacher
+            .as_mut()
+            .map(|teach| match teacher_views(self.envs.envs()) {
                 Some(views) => teach(&views),
                 None => teach(&self.obs),
-            }),
-            None => None,
-        };
+            });
         let step = match restart {
             None => self.envs.step(&actions)?,
             Some(seeds) => self.envs.step_then_restart(&actions, seeds)?,
